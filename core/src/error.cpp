@@ -1,0 +1,35 @@
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+const char* error_code_name(ErrorCode code) {
+    switch (code) {
+        case ErrorCode::Ok: return "ok";
+        case ErrorCode::InvalidArgument: return "invalid argument";
+        case ErrorCode::IoError: return "I/O error";
+        case ErrorCode::Truncated: return "truncated input";
+        case ErrorCode::BadMagic: return "bad magic";
+        case ErrorCode::UnsupportedVersion: return "unsupported version";
+        case ErrorCode::UnsupportedFeature: return "unsupported feature";
+        case ErrorCode::ChecksumMismatch: return "checksum mismatch";
+        case ErrorCode::CorruptData: return "corrupt data";
+        case ErrorCode::SizeMismatch: return "size mismatch";
+        case ErrorCode::TooLarge: return "too large";
+        case ErrorCode::NotFound: return "not found";
+        case ErrorCode::NotBuilt: return "not built";
+    }
+    return "unknown error";
+}
+
+int exit_code_for(ErrorCode code) {
+    switch (code) {
+        case ErrorCode::Ok: return 0;
+        case ErrorCode::InvalidArgument: return 2;
+        case ErrorCode::IoError: return 3;
+        case ErrorCode::NotFound: return 3;
+        case ErrorCode::NotBuilt: return 5;
+        default: return 4;  // the input is bad: truncated, corrupt, unsupported, too large
+    }
+}
+
+}  // namespace tetlod

@@ -1,0 +1,70 @@
+#include "tetlod/core/volume.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+void validate_dims(const Dims& d, const std::string& what) {
+    for (int a = 0; a < 3; ++a) {
+        if (d[a] < 1)
+            throw Error(ErrorCode::InvalidArgument,
+                        what + ": dimension " + std::to_string(a) + " is " + std::to_string(d[a]) +
+                            " (must be at least 1)");
+        if (d[a] > kMaxAxisSize)
+            throw Error(ErrorCode::TooLarge, what + ": dimension " + std::to_string(d[a]) +
+                                                 " exceeds the limit of " +
+                                                 std::to_string(kMaxAxisSize));
+    }
+    if (d.count() > kMaxVolumePoints)
+        throw Error(ErrorCode::TooLarge, what + ": " + std::to_string(d.count()) +
+                                             " grid points exceed the limit of " +
+                                             std::to_string(kMaxVolumePoints));
+}
+
+Volume Volume::allocate(Dims dims, ValueType type) {
+    validate_dims(dims, "volume");
+    Volume v;
+    v.dims = dims;
+    v.type = type;
+    v.data.assign(static_cast<std::size_t>(dims.count()) * value_size(type), std::byte{0});
+    return v;
+}
+
+double Volume::value(int64_t i) const {
+    return dispatch_value_type(type, [&](auto t) {
+        using T = decltype(t);
+        T v;
+        std::memcpy(&v, data.data() + static_cast<std::size_t>(i) * sizeof(T), sizeof(T));
+        return static_cast<double>(v);
+    });
+}
+
+void Volume::set_value(int64_t i, double value) {
+    dispatch_value_type(type, [&](auto t) {
+        using T = decltype(t);
+        T v = static_cast<T>(value);
+        std::memcpy(data.data() + static_cast<std::size_t>(i) * sizeof(T), &v, sizeof(T));
+    });
+}
+
+std::array<double, 2> Volume::range() const {
+    return dispatch_value_type(type, [&](auto t) {
+        using T = decltype(t);
+        const T* p = as<T>();
+        const int64_t n = count();
+        double lo = std::numeric_limits<double>::infinity();
+        double hi = -lo;
+        for (int64_t i = 0; i < n; ++i) {
+            double v = static_cast<double>(p[i]);
+            if (v < lo) lo = v;
+            if (v > hi) hi = v;
+        }
+        if (!(lo <= hi)) return std::array<double, 2>{0.0, 0.0};
+        return std::array<double, 2>{lo, hi};
+    });
+}
+
+}  // namespace tetlod

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the Debian (bookworm) packages tetlod needs, only those missing.
+# Needs root (or sudo) when anything is missing; does nothing otherwise.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libgtest-dev libbenchmark-dev
+  libtbb-dev zlib1g-dev libzstd-dev zstd
+  libcli11-dev nlohmann-json3-dev libxxhash-dev
+  libopenvdb-dev libboost-iostreams-dev
+  libhdf5-dev hdf5-tools
+  libopenmesh-dev
+  clang libclang-rt-14-dev
+  python3 python3-numpy python3-vtk9 python3-meshio python3-h5py
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
