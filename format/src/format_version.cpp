@@ -1,4 +1,63 @@
-// Placeholder translation unit so the library exists before the container lands.
-namespace tetlod::format_detail {
-int format_library_anchor() { return 0; }
-}  // namespace tetlod::format_detail
+// Version constants, checksums and the zstd frame helpers of the container.
+#include <xxhash.h>
+#include <zstd.h>
+
+#include "tetlod/format/container.hpp"
+
+namespace tetlod::tlod {
+
+const char* format_version_string() { return "tlod-format 1.0"; }
+
+uint64_t checksum64(std::span<const std::byte> bytes) {
+    return XXH64(bytes.data(), bytes.size(), 0);
+}
+
+std::vector<std::byte> zstd_compress(std::span<const std::byte> raw, int level) {
+    std::vector<std::byte> out(ZSTD_compressBound(raw.size()));
+    ZSTD_CCtx* cctx = ZSTD_createCCtx();
+    if (!cctx) throw Error(ErrorCode::IoError, "zstd: out of memory");
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
+    // Our own XXH64 covers the stored bytes; zstd's checksum would be redundant.
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 0);
+    std::size_t n = ZSTD_compress2(cctx, out.data(), out.size(), raw.data(), raw.size());
+    ZSTD_freeCCtx(cctx);
+    if (ZSTD_isError(n))
+        throw Error(ErrorCode::IoError, std::string("zstd compression failed: ") +
+                                            ZSTD_getErrorName(n));
+    out.resize(n);
+    return out;
+}
+
+Expected<std::vector<std::byte>> zstd_decompress(std::span<const std::byte> stored,
+                                                 uint64_t raw_size) {
+    // The frame must be exactly one frame filling the stored bytes.
+    std::size_t frame = ZSTD_findFrameCompressedSize(stored.data(), stored.size());
+    if (ZSTD_isError(frame))
+        return fail(ErrorCode::CorruptData,
+                    std::string("bad zstd frame: ") + ZSTD_getErrorName(frame));
+    if (frame != stored.size())
+        return fail(ErrorCode::CorruptData, "bytes after the zstd frame in a section");
+    unsigned long long declared = ZSTD_getFrameContentSize(stored.data(), stored.size());
+    if (declared == ZSTD_CONTENTSIZE_ERROR || declared == ZSTD_CONTENTSIZE_UNKNOWN)
+        return fail(ErrorCode::CorruptData, "zstd frame without a content size");
+    if (declared != raw_size)
+        return fail(ErrorCode::CorruptData, "zstd frame content size " + std::to_string(declared) +
+                                                " differs from the section's raw size " +
+                                                std::to_string(raw_size));
+    std::vector<std::byte> out;
+    try {
+        out.resize(static_cast<std::size_t>(raw_size));
+    } catch (const std::bad_alloc&) {
+        return fail(ErrorCode::TooLarge, "cannot allocate " + std::to_string(raw_size) + " bytes");
+    }
+    std::size_t n = ZSTD_decompress(out.data(), out.size(), stored.data(), stored.size());
+    if (ZSTD_isError(n))
+        return fail(ErrorCode::CorruptData,
+                    std::string("zstd decompression failed: ") + ZSTD_getErrorName(n));
+    if (n != raw_size)
+        return fail(ErrorCode::CorruptData, "zstd frame expanded to the wrong size");
+    return out;
+}
+
+}  // namespace tetlod::tlod

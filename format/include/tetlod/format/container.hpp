@@ -1,0 +1,157 @@
+#pragma once
+// The .tlod container framing (spec/tlod-format.md): a fixed header, a section
+// table, and sections that are each one independent zstd frame (or stored bytes)
+// with an XXH64 checksum. This layer knows nothing of HT or MT: it moves typed
+// byte blobs in and out, enforces the structural rules and the checksums, and
+// counts the bytes it reads so callers can measure partial (lazy) reads.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::tlod {
+
+// ---- versions (one named constant per bump; see the spec's "Version changes") ----
+inline constexpr uint16_t kVersion1_0_Major = 1;
+inline constexpr uint16_t kVersion1_0_Minor = 0;
+inline constexpr uint16_t kVersionMajor = kVersion1_0_Major;  // what this library writes
+inline constexpr uint16_t kVersionMinor = kVersion1_0_Minor;
+/// "tlod-format 1.0": for --version output.
+const char* format_version_string();
+
+inline constexpr unsigned char kMagic[8] = {0x89, 'T', 'L', 'O', 'D', 0x0D, 0x0A, 0x1A};
+inline constexpr uint32_t kHeaderSize = 64;
+inline constexpr uint32_t kTableEntrySize = 48;
+
+// ---- feature flags (header) ----
+/// Required: the file holds a Hierarchy of Tetrahedra (HT_HEADER + HT_FIELD + HT_ERRORS).
+inline constexpr uint64_t kFeatureHt = uint64_t{1} << 0;
+inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt;
+
+// ---- section types ----
+enum SectionType : uint32_t {
+    kSectionMetadata = 1,
+    kSectionHtHeader = 2,
+    kSectionHtField = 3,
+    kSectionHtErrors = 4,
+};
+/// Whether this library knows the section type (unknown, non-critical ones are skipped).
+bool is_known_section_type(uint32_t type);
+const char* section_type_name(uint32_t type);
+
+// ---- section flags ----
+inline constexpr uint32_t kSectionZstd = 1u << 0;      // stored bytes are one zstd frame
+inline constexpr uint32_t kSectionCritical = 1u << 1;  // readers must understand the type
+inline constexpr uint32_t kKnownSectionFlags = kSectionZstd | kSectionCritical;
+
+struct Header {
+    uint16_t version_major = kVersionMajor;
+    uint16_t version_minor = kVersionMinor;
+    uint64_t required_features = 0;
+    uint64_t optional_features = 0;
+    uint64_t file_size = 0;
+    uint32_t section_count = 0;
+};
+
+struct SectionInfo {
+    uint32_t type = 0;
+    uint32_t flags = 0;
+    uint64_t offset = 0;
+    uint64_t stored_size = 0;
+    uint64_t raw_size = 0;
+    uint32_t arg0 = 0;  // type-specific (HT chunks: cycle)
+    uint32_t arg1 = 0;  // type-specific (HT chunks: brick index)
+    uint64_t checksum = 0;  // XXH64(stored bytes, seed 0)
+};
+
+/// XXH64 with seed 0 (the container's only checksum).
+uint64_t checksum64(std::span<const std::byte> bytes);
+
+/// Compresses `raw` as one zstd frame (content size recorded, no dictionary).
+/// Throws tetlod::Error only on internal zstd failure.
+std::vector<std::byte> zstd_compress(std::span<const std::byte> raw, int level);
+/// Decompresses one zstd frame that must expand to exactly `raw_size` bytes.
+/// Safe on untrusted input: never allocates more than raw_size (which the
+/// caller has validated) and rejects trailing bytes after the frame.
+Expected<std::vector<std::byte>> zstd_decompress(std::span<const std::byte> stored,
+                                                 uint64_t raw_size);
+
+// ---- reading ----
+
+/// Random-access byte source of a container (a file via pread, or memory).
+class ByteSource {
+public:
+    virtual ~ByteSource() = default;
+    virtual uint64_t size() const = 0;
+    /// Reads exactly `size` bytes at `offset` into `out`; false on I/O error.
+    virtual bool read_at(uint64_t offset, std::byte* out, std::size_t size) = 0;
+};
+
+class ContainerReader {
+public:
+    /// Opens a file and validates the header and the section table (only those
+    /// bytes are read). Safe on untrusted input.
+    static Expected<ContainerReader> open(const std::string& path);
+    /// Same over a memory buffer, which must outlive the reader (fuzzers, tests).
+    static Expected<ContainerReader> from_memory(std::span<const std::byte> bytes,
+                                                 std::string name = "<memory>");
+
+    const Header& header() const { return header_; }
+    const std::vector<SectionInfo>& sections() const { return sections_; }
+    const std::string& name() const { return name_; }
+
+    /// Index of the first section of `type` (with arg0/arg1 when given), or -1.
+    int find(uint32_t type) const;
+
+    /// Reads section i's stored bytes, checks the checksum, decompresses and
+    /// checks the raw size. Safe on untrusted input.
+    Expected<std::vector<std::byte>> read_section(std::size_t i);
+    /// Reads the stored bytes and checks only the checksum (verify).
+    Expected<std::vector<std::byte>> read_stored(std::size_t i);
+
+    /// Bytes read from the source so far (header and table included).
+    uint64_t bytes_read() const { return bytes_read_; }
+
+private:
+    static Expected<ContainerReader> parse(std::unique_ptr<ByteSource> src, std::string name);
+    std::shared_ptr<ByteSource> src_;
+    std::string name_;
+    Header header_;
+    std::vector<SectionInfo> sections_;
+    uint64_t bytes_read_ = 0;
+};
+
+// ---- writing ----
+
+/// Collects sections in file order and writes the container atomically.
+class ContainerWriter {
+public:
+    void set_features(uint64_t required, uint64_t optional = 0) {
+        header_.required_features = required;
+        header_.optional_features = optional;
+    }
+    /// Appends a section whose stored bytes are already final (e.g. compressed
+    /// in parallel by the caller with zstd_compress); flags must say how.
+    void add_stored(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
+                    std::vector<std::byte> stored, uint64_t raw_size);
+    /// Compresses `raw` with zstd at `level` and appends it.
+    void add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
+             std::span<const std::byte> raw, int level);
+
+    /// The whole file in memory.
+    std::vector<std::byte> finish() const;
+    /// Writes the file atomically (temp file + rename). Throws tetlod::Error.
+    void write(const std::string& path) const;
+
+private:
+    std::vector<std::byte> head_bytes() const;
+    Header header_;
+    std::vector<SectionInfo> sections_;
+    std::vector<std::vector<std::byte>> payloads_;
+};
+
+}  // namespace tetlod::tlod

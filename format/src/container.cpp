@@ -1,0 +1,296 @@
+// Header and section table of the .tlod container: reading with every structural
+// rule of spec/tlod-format.md §3-§4 checked before anything is trusted, and writing.
+#include "tetlod/format/container.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "tetlod/core/atomic_file.hpp"
+#include "tetlod/format/byte_io.hpp"
+
+namespace tetlod::tlod {
+
+bool is_known_section_type(uint32_t type) {
+    return type >= kSectionMetadata && type <= kSectionHtErrors;
+}
+
+const char* section_type_name(uint32_t type) {
+    switch (type) {
+        case kSectionMetadata: return "METADATA";
+        case kSectionHtHeader: return "HT_HEADER";
+        case kSectionHtField: return "HT_FIELD";
+        case kSectionHtErrors: return "HT_ERRORS";
+    }
+    return "UNKNOWN";
+}
+
+namespace {
+
+class FileSource final : public ByteSource {
+public:
+    FileSource(int fd, uint64_t size) : fd_(fd), size_(size) {}
+    ~FileSource() override { ::close(fd_); }
+    uint64_t size() const override { return size_; }
+    bool read_at(uint64_t offset, std::byte* out, std::size_t n) override {
+        while (n > 0) {
+            ssize_t r = ::pread(fd_, out, n, static_cast<off_t>(offset));
+            if (r < 0 && errno == EINTR) continue;
+            if (r <= 0) return false;
+            out += r;
+            n -= static_cast<std::size_t>(r);
+            offset += static_cast<uint64_t>(r);
+        }
+        return true;
+    }
+
+private:
+    int fd_;
+    uint64_t size_;
+};
+
+class MemorySource final : public ByteSource {
+public:
+    explicit MemorySource(std::span<const std::byte> b) : b_(b) {}
+    uint64_t size() const override { return b_.size(); }
+    bool read_at(uint64_t offset, std::byte* out, std::size_t n) override {
+        if (offset > b_.size() || n > b_.size() - offset) return false;
+        if (n) std::memcpy(out, b_.data() + offset, n);
+        return true;
+    }
+
+private:
+    std::span<const std::byte> b_;
+};
+
+// A valid zstd frame expands at most 32768x (a 4-byte RLE block per 128 KiB);
+// a larger claimed raw size cannot be honest, so it is refused before allocating.
+bool plausible_raw_size(const SectionInfo& s) {
+    if (!(s.flags & kSectionZstd)) return s.raw_size == s.stored_size;
+    if (s.stored_size > (uint64_t{1} << 47)) return true;
+    return s.raw_size <= s.stored_size * 32768 + 131072;
+}
+
+}  // namespace
+
+Expected<ContainerReader> ContainerReader::open(const std::string& path) {
+    int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return fail(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        ::close(fd);
+        return fail(ErrorCode::IoError, "'" + path + "' is not a regular file");
+    }
+    return parse(std::make_unique<FileSource>(fd, static_cast<uint64_t>(st.st_size)), path);
+}
+
+Expected<ContainerReader> ContainerReader::from_memory(std::span<const std::byte> bytes,
+                                                       std::string name) {
+    return parse(std::make_unique<MemorySource>(bytes), std::move(name));
+}
+
+Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src, std::string name) {
+    const std::string where = name + ": ";
+    const uint64_t size = src->size();
+    std::byte head[kHeaderSize];
+    const std::size_t got = static_cast<std::size_t>(std::min<uint64_t>(size, kHeaderSize));
+    if (!src->read_at(0, head, got)) return fail(ErrorCode::IoError, where + "read failed");
+    const std::size_t magic_part = std::min<std::size_t>(got, 8);
+    if (std::memcmp(head, kMagic, magic_part) != 0)
+        return fail(ErrorCode::BadMagic, where + "not a .tlod container (bad magic)");
+    if (got < kHeaderSize)
+        return fail(ErrorCode::Truncated, where + "truncated: the file ends inside the " +
+                                              std::to_string(kHeaderSize) + "-byte header (" +
+                                              std::to_string(size) + " bytes)");
+    ByteReader r(std::span<const std::byte>(head, kHeaderSize));
+    r.str(8);
+    Header h;
+    h.version_major = r.u16();
+    h.version_minor = r.u16();
+    const uint32_t header_size = r.u32();
+    h.required_features = r.u64();
+    h.optional_features = r.u64();
+    h.file_size = r.u64();
+    h.section_count = r.u32();
+    const uint32_t entry_size = r.u32();
+    const uint64_t table_checksum = r.u64();
+    const uint64_t header_checksum = r.u64();
+    if (checksum64(std::span<const std::byte>(head, 56)) != header_checksum)
+        return fail(ErrorCode::ChecksumMismatch, where + "header checksum mismatch");
+    if (h.version_major != kVersionMajor)
+        return fail(ErrorCode::UnsupportedVersion,
+                    where + "format version " + std::to_string(h.version_major) + "." +
+                        std::to_string(h.version_minor) + " is not supported (this reader: " +
+                        std::to_string(kVersionMajor) + ".x)");
+    if (header_size != kHeaderSize || entry_size != kTableEntrySize)
+        return fail(ErrorCode::CorruptData, where + "header or table entry size is not the one of version 1");
+    if (uint64_t unknown = h.required_features & ~kKnownRequiredFeatures)
+        return fail(ErrorCode::UnsupportedFeature,
+                    where + "requires unknown features (bits 0x" + [&] {
+                        char b[32];
+                        std::snprintf(b, sizeof b, "%llx", static_cast<unsigned long long>(unknown));
+                        return std::string(b);
+                    }() + "); a newer reader is needed");
+    if (size < h.file_size)
+        return fail(ErrorCode::Truncated, where + "truncated: " + std::to_string(size) +
+                                              " bytes, the header declares " +
+                                              std::to_string(h.file_size));
+    if (size > h.file_size)
+        return fail(ErrorCode::CorruptData, where + std::to_string(size - h.file_size) +
+                                                " trailing bytes after the declared end of the file");
+    const uint64_t table_end = uint64_t{kHeaderSize} + uint64_t{h.section_count} * kTableEntrySize;
+    if (table_end > h.file_size)
+        return fail(ErrorCode::CorruptData, where + "the section table (" +
+                                                std::to_string(h.section_count) +
+                                                " entries) extends past the end of the file");
+    std::vector<std::byte> table(static_cast<std::size_t>(table_end - kHeaderSize));
+    if (!src->read_at(kHeaderSize, table.data(), table.size()))
+        return fail(ErrorCode::IoError, where + "read failed");
+    if (checksum64(table) != table_checksum)
+        return fail(ErrorCode::ChecksumMismatch, where + "section table checksum mismatch");
+
+    ContainerReader out;
+    out.sections_.reserve(h.section_count);
+    ByteReader t(table);
+    uint64_t expected_offset = table_end;
+    for (uint32_t i = 0; i < h.section_count; ++i) {
+        SectionInfo s;
+        s.type = t.u32();
+        s.flags = t.u32();
+        s.offset = t.u64();
+        s.stored_size = t.u64();
+        s.raw_size = t.u64();
+        s.arg0 = t.u32();
+        s.arg1 = t.u32();
+        s.checksum = t.u64();
+        const std::string sec = where + "section " + std::to_string(i) + " (" +
+                                section_type_name(s.type) + "): ";
+        if (s.flags & ~kKnownSectionFlags)
+            return fail(ErrorCode::CorruptData, sec + "reserved flag bits are set");
+        if (s.offset != expected_offset)
+            return fail(ErrorCode::CorruptData, sec + "offset " + std::to_string(s.offset) +
+                                                    " is not the end of the previous section (" +
+                                                    std::to_string(expected_offset) + ")");
+        if (s.stored_size > h.file_size - s.offset)
+            return fail(ErrorCode::CorruptData, sec + "extends past the end of the file");
+        if (!plausible_raw_size(s))
+            return fail(ErrorCode::CorruptData, sec + "raw size " + std::to_string(s.raw_size) +
+                                                    " is impossible for its stored size");
+        if (!is_known_section_type(s.type) && (s.flags & kSectionCritical))
+            return fail(ErrorCode::UnsupportedFeature,
+                        sec + "critical section of unknown type " + std::to_string(s.type));
+        expected_offset = s.offset + s.stored_size;
+        out.sections_.push_back(s);
+    }
+    if (expected_offset != h.file_size)
+        return fail(ErrorCode::CorruptData, where + "bytes between the last section and the end of the file");
+    out.header_ = h;
+    out.name_ = std::move(name);
+    out.src_ = std::move(src);
+    out.bytes_read_ = table_end;
+    return out;
+}
+
+int ContainerReader::find(uint32_t type) const {
+    for (std::size_t i = 0; i < sections_.size(); ++i)
+        if (sections_[i].type == type) return static_cast<int>(i);
+    return -1;
+}
+
+Expected<std::vector<std::byte>> ContainerReader::read_stored(std::size_t i) {
+    if (i >= sections_.size()) return fail(ErrorCode::NotFound, name_ + ": no section " + std::to_string(i));
+    const SectionInfo& s = sections_[i];
+    std::vector<std::byte> stored(static_cast<std::size_t>(s.stored_size));
+    if (!src_->read_at(s.offset, stored.data(), stored.size()))
+        return fail(ErrorCode::IoError, name_ + ": read failed");
+    bytes_read_ += s.stored_size;
+    if (checksum64(stored) != s.checksum)
+        return fail(ErrorCode::ChecksumMismatch, name_ + ": section " + std::to_string(i) + " (" +
+                                                     section_type_name(s.type) +
+                                                     ") checksum mismatch");
+    return stored;
+}
+
+Expected<std::vector<std::byte>> ContainerReader::read_section(std::size_t i) {
+    auto stored = read_stored(i);
+    if (!stored) return stored.failure();
+    const SectionInfo& s = sections_[i];
+    if (!(s.flags & kSectionZstd)) return stored;
+    auto raw = zstd_decompress(*stored, s.raw_size);
+    if (!raw)
+        return fail(raw.failure().code, name_ + ": section " + std::to_string(i) + " (" +
+                                            section_type_name(s.type) + "): " + raw.failure().message);
+    return raw;
+}
+
+// ---- writer ----
+
+void ContainerWriter::add_stored(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
+                                 std::vector<std::byte> stored, uint64_t raw_size) {
+    SectionInfo s;
+    s.type = type;
+    s.flags = flags;
+    s.stored_size = stored.size();
+    s.raw_size = raw_size;
+    s.arg0 = arg0;
+    s.arg1 = arg1;
+    s.checksum = checksum64(stored);
+    sections_.push_back(s);
+    payloads_.push_back(std::move(stored));
+}
+
+void ContainerWriter::add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
+                          std::span<const std::byte> raw, int level) {
+    add_stored(type, flags | kSectionZstd, arg0, arg1, zstd_compress(raw, level), raw.size());
+}
+
+std::vector<std::byte> ContainerWriter::head_bytes() const {
+    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    std::vector<std::byte> table;
+    table.reserve(kTableEntrySize * sections_.size());
+    for (const SectionInfo& s : sections_) {
+        put_u32(table, s.type);
+        put_u32(table, s.flags);
+        put_u64(table, offset);
+        put_u64(table, s.stored_size);
+        put_u64(table, s.raw_size);
+        put_u32(table, s.arg0);
+        put_u32(table, s.arg1);
+        put_u64(table, s.checksum);
+        offset += s.stored_size;
+    }
+    std::vector<std::byte> h;
+    h.reserve(kHeaderSize + table.size());
+    for (unsigned char c : kMagic) put_u8(h, c);
+    put_u16(h, header_.version_major);
+    put_u16(h, header_.version_minor);
+    put_u32(h, kHeaderSize);
+    put_u64(h, header_.required_features);
+    put_u64(h, header_.optional_features);
+    put_u64(h, offset);  // file size
+    put_u32(h, static_cast<uint32_t>(sections_.size()));
+    put_u32(h, kTableEntrySize);
+    put_u64(h, checksum64(table));
+    put_u64(h, checksum64(h));
+    h.insert(h.end(), table.begin(), table.end());
+    return h;
+}
+
+std::vector<std::byte> ContainerWriter::finish() const {
+    std::vector<std::byte> out = head_bytes();
+    for (const auto& p : payloads_) out.insert(out.end(), p.begin(), p.end());
+    return out;
+}
+
+void ContainerWriter::write(const std::string& path) const {
+    AtomicFile f(path);
+    std::vector<std::byte> head = head_bytes();
+    f.write(head.data(), head.size());
+    for (const auto& p : payloads_) f.write(p.data(), p.size());
+    f.commit();
+}
+
+}  // namespace tetlod::tlod
