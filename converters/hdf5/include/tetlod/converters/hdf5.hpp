@@ -1,0 +1,44 @@
+#pragma once
+// HDF5 volumes through the HDF5 C library: one dataset of a file, addressed as
+// FILE.h5:/path/to/dataset. Only hdf5_volume.cpp includes hdf5.h.
+//
+// Read: a dataset of rank 1..3, any integer (8/16/32-bit; 64-bit integers when
+// every value fits int32 are refused for simplicity: ErrorCode::UnsupportedFeature)
+// or float type, either byte order, contiguous or chunked with any filter the
+// library decodes (deflate, shuffle, ...).
+//  - axis order: C order [z][y][x] (x fastest) by default, the numpy/h5py
+//    convention. VolumeReadOptions::axis_order "xyz", or else an "axis_order"
+//    attribute "xyz" on the dataset, means the first index is x.
+//  - spacing: attribute "spacing" (3 numbers, x y z order unless an attribute
+//    "spacing_order" says "zyx"), else "element_size_um" (in dataset axis order,
+//    the Fiji/ilastik convention). Origin: attribute "origin" (x y z).
+//    "field_name" and "units" attributes set those fields.
+//  - every other attribute (numbers or strings) is kept in Volume::metadata as
+//    text.
+// Large datasets are read in bounded slabs. Errors (missing file or dataset,
+// wrong type, truncated file) are tetlod::Error naming the file and dataset.
+#include <string>
+
+#include "tetlod/converters/volume_read_options.hpp"
+#include "tetlod/core/volume.hpp"
+
+namespace tetlod {
+
+Volume read_hdf5(const std::string& file, const std::string& dataset, const VolumeReadOptions& options = {});
+
+struct Hdf5WriteOptions {
+    Endian endian = Endian::Little;
+    /// 0: contiguous, uncompressed (bytes identical to a raw file). 1..9: chunked
+    /// (one z-slab chunks) and deflate-compressed at that level.
+    int deflate_level = 0;
+};
+
+/// Writes a new file holding `dataset` (parent groups created) of shape
+/// (Z, Y, X), the volume's type, attributes spacing (x y z), spacing_order "xyz",
+/// origin, dims_xyz, axis_order "zyx", field_name, units, and every metadata entry
+/// as a string attribute. Written to a temporary file in the same directory, then
+/// renamed over `file` (any previous content of `file` is replaced).
+void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
+                const Hdf5WriteOptions& options = {});
+
+}  // namespace tetlod

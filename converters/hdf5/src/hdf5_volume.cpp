@@ -1,0 +1,1 @@
+#include "tetlod/converters/hdf5.hpp"

@@ -1,0 +1,43 @@
+#pragma once
+// OpenVDB volumes (.vdb) through the OpenVDB library. This header names no
+// OpenVDB type, so including it costs nothing; only vdb_volume.cpp includes
+// openvdb.h.
+//
+// Read: one grid, chosen by VolumeReadOptions::grid or, when empty, the only
+// scalar grid in the file (several: ErrorCode::InvalidArgument listing them;
+// none or a wrong name: ErrorCode::NotFound listing the scalar grids).
+//  - grid types Float, Double, Int32, Int64 (values must fit int32, as tetlod
+//    volumes hold at most 32-bit integers) and Bool (read as u8 0/1).
+//  - extent: grid metadata "dims_xyz" (voxels 0..dims-1) when present and it
+//    contains every active voxel; otherwise the active-voxel bounding box.
+//    Inactive voxels take the grid's background value.
+//  - transform: linear with a diagonal, positive scale (uniform or not) becomes
+//    spacing, its translation (at the first dense voxel) the origin; a rotation,
+//    shear, flip, or non-linear (frustum) transform is ErrorCode::UnsupportedFeature.
+//  - grid metadata go to Volume::metadata as text (except OpenVDB's own file_*
+//    statistics). "tetlod_value_type" or "original_dtype" restores an integer
+//    type stored as float when every value converts exactly.
+// Safe on untrusted input: errors from the library become tetlod::Error naming
+// the file.
+#include <string>
+#include <vector>
+
+#include "tetlod/converters/volume_read_options.hpp"
+#include "tetlod/core/volume.hpp"
+
+namespace tetlod {
+
+Volume read_vdb(const std::string& path, const VolumeReadOptions& options = {});
+
+/// Names and types ("float", "int32", ...) of every grid in the file.
+std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path);
+
+/// Writes one grid named after Volume::field_name: f32 -> FloatGrid, f64 ->
+/// DoubleGrid, other integer types -> Int32Grid (u32 -> Int64Grid) with metadata
+/// "tetlod_value_type" so reading restores the exact type. Voxels equal (bit for
+/// bit) to the background 0 stay inactive; "dims_xyz" records the full extent.
+/// Transform: scale = spacing, translation = origin. Metadata as string metadata.
+/// Written to a temporary file in the same directory, then renamed over `path`.
+void write_vdb(const Volume& volume, const std::string& path);
+
+}  // namespace tetlod

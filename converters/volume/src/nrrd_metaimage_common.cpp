@@ -1,0 +1,358 @@
+#include "nrrd_metaimage_common.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::detail {
+
+namespace {
+
+constexpr std::size_t kIoChunk = std::size_t{4} << 20;   // bytes read or written per call
+constexpr std::size_t kZChunk = std::size_t{256} << 10;  // compressed bytes per call
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+Endian host_endian() { return std::endian::native == std::endian::little ? Endian::Little : Endian::Big; }
+
+void swap_bytes(std::byte* p, std::size_t bytes, std::size_t width) {
+    if (width == 1) return;
+    for (std::size_t i = 0; i + width <= bytes; i += width) std::reverse(p + i, p + i + width);
+}
+
+uint64_t file_size_of(const std::string& path, const std::string& what) {
+    std::error_code ec;
+    auto size = std::filesystem::file_size(path, ec);
+    if (ec)
+        throw Error(ErrorCode::IoError, what + ": cannot open data file '" + path + "': " + ec.message());
+    return size;
+}
+
+FilePtr open_read(const std::string& path, const std::string& what) {
+    FilePtr f(std::fopen(path.c_str(), "rb"));
+    if (!f)
+        throw Error(ErrorCode::IoError,
+                    what + ": cannot open data file '" + path + "': " + std::strerror(errno));
+    return f;
+}
+
+void seek_to(std::FILE* f, uint64_t pos, const std::string& path) {
+    if (::fseeko(f, static_cast<off_t>(pos), SEEK_SET) != 0)
+        throw Error(ErrorCode::IoError, "cannot seek in '" + path + "': " + std::strerror(errno));
+}
+
+// Skips `lines` newline-terminated lines; returns the new position.
+uint64_t skip_lines(std::FILE* f, int64_t lines, uint64_t pos, const std::string& path,
+                    const std::string& what) {
+    for (int64_t l = 0; l < lines; ++l) {
+        int c;
+        while ((c = std::fgetc(f)) != EOF && c != '\n') ++pos;
+        if (c == EOF)
+            throw Error(ErrorCode::Truncated, what + ": data file '" + path + "' ends within the " +
+                                                  std::to_string(lines) + " lines to skip");
+        ++pos;
+    }
+    return pos;
+}
+
+void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& piece,
+                    std::byte* out, uint64_t bytes, const std::string& what) {
+    uint64_t start = pos;
+    if (piece.byte_skip == -1) {
+        if (size < bytes || size - bytes < pos)
+            throw Error(ErrorCode::Truncated,
+                        what + ": data file '" + piece.path + "' holds " + std::to_string(size) +
+                            " bytes, fewer than the " + std::to_string(bytes) + " the header declares");
+        start = size - bytes;
+    } else {
+        start = pos + static_cast<uint64_t>(piece.byte_skip);
+    }
+    if (start > size || size - start < bytes)
+        throw Error(ErrorCode::Truncated,
+                    what + ": data file '" + piece.path + "' is truncated: " +
+                        std::to_string(start > size ? 0 : size - start) + " bytes of data after offset " +
+                        std::to_string(start) + ", but the header declares " + std::to_string(bytes));
+    seek_to(f, start, piece.path);
+    for (uint64_t done = 0; done < bytes;) {
+        std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(kIoChunk, bytes - done));
+        if (std::fread(out + done, 1, n, f) != n)
+            throw Error(ErrorCode::Truncated, what + ": cannot read data file '" + piece.path +
+                                                  "' (ended or failed at byte " +
+                                                  std::to_string(start + done) + ")");
+        done += n;
+    }
+}
+
+void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_t bytes,
+                   const std::string& what) {
+    z_stream zs{};
+    if (inflateInit2(&zs, 15 + 32) != Z_OK)
+        throw Error(ErrorCode::IoError, what + ": cannot initialise zlib");
+    struct Guard {
+        z_stream* z;
+        ~Guard() { inflateEnd(z); }
+    } guard{&zs};
+    std::vector<unsigned char> in(kZChunk);
+    std::vector<unsigned char> skip(std::min<uint64_t>(kZChunk, std::max<int64_t>(piece.byte_skip, 1)));
+    uint64_t to_skip = piece.byte_skip > 0 ? static_cast<uint64_t>(piece.byte_skip) : 0;
+    uint64_t done = 0;
+    bool stream_end = false;
+    auto corrupt = [&](const char* msg) {
+        return Error(ErrorCode::CorruptData, what + ": compressed data in '" + piece.path +
+                                                 "' is corrupt (" + (msg ? msg : "zlib error") + ")");
+    };
+    while (done < bytes) {
+        if (zs.avail_in == 0) {
+            std::size_t n = std::fread(in.data(), 1, in.size(), f);
+            if (n == 0)
+                throw Error(ErrorCode::Truncated,
+                            what + ": data file '" + piece.path + "' is truncated: it decompresses to " +
+                                std::to_string(done) + " bytes, but the header declares " +
+                                std::to_string(bytes));
+            zs.next_in = in.data();
+            zs.avail_in = static_cast<uInt>(n);
+        }
+        if (stream_end) {  // a following gzip member (concatenated streams)
+            if (inflateReset(&zs) != Z_OK) throw corrupt(zs.msg);
+            stream_end = false;
+        }
+        if (to_skip > 0) {
+            zs.next_out = skip.data();
+            zs.avail_out = static_cast<uInt>(std::min<uint64_t>(skip.size(), to_skip));
+        } else {
+            zs.next_out = reinterpret_cast<Bytef*>(out + done);
+            zs.avail_out = static_cast<uInt>(std::min<uint64_t>(kIoChunk, bytes - done));
+        }
+        uInt before = zs.avail_out;
+        int rc = inflate(&zs, Z_NO_FLUSH);
+        if (rc == Z_STREAM_END) {
+            stream_end = true;
+        } else if (rc != Z_OK && rc != Z_BUF_ERROR) {
+            throw corrupt(zs.msg);
+        }
+        uint64_t produced = before - zs.avail_out;
+        if (to_skip > 0) to_skip -= produced;
+        else done += produced;
+    }
+}
+
+}  // namespace
+
+void check_piece_sizes(const std::vector<DataPiece>& pieces, Compression compression,
+                       uint64_t total_bytes, const std::string& what) {
+    if (pieces.empty()) throw Error(ErrorCode::CorruptData, what + ": no data file");
+    if (total_bytes % pieces.size() != 0)
+        throw Error(ErrorCode::SizeMismatch,
+                    what + ": " + std::to_string(total_bytes) + " bytes of samples cannot be split evenly over " +
+                        std::to_string(pieces.size()) + " data files");
+    const uint64_t per = total_bytes / pieces.size();
+    for (const auto& p : pieces) {
+        uint64_t size = file_size_of(p.path, what);
+        uint64_t avail = size > p.file_offset ? size - p.file_offset : 0;
+        if (compression == Compression::None) {
+            uint64_t need = per + (p.byte_skip > 0 ? static_cast<uint64_t>(p.byte_skip) : 0);
+            if (avail < need)
+                throw Error(ErrorCode::Truncated,
+                            what + ": data file '" + p.path + "' is truncated: it holds " + std::to_string(avail) +
+                                " bytes of data, but the header declares " + std::to_string(need));
+        } else {
+            uint64_t need = per + (p.byte_skip > 0 ? static_cast<uint64_t>(p.byte_skip) : 0);
+            if (avail == 0 || need / kMaxDeflateRatio > avail)
+                throw Error(ErrorCode::Truncated,
+                            what + ": data file '" + p.path + "' holds " + std::to_string(avail) +
+                                " compressed bytes, too few to decompress to the " + std::to_string(need) +
+                                " bytes the header declares");
+        }
+    }
+}
+
+void read_samples(Volume& volume, const std::vector<DataPiece>& pieces, Compression compression,
+                  Endian file_endian, const std::string& what) {
+    const uint64_t total = volume.data.size();
+    check_piece_sizes(pieces, compression, total, what);
+    const uint64_t per = total / pieces.size();
+    std::byte* out = volume.data.data();
+    for (const auto& piece : pieces) {
+        uint64_t size = file_size_of(piece.path, what);
+        FilePtr f = open_read(piece.path, what);
+        seek_to(f.get(), piece.file_offset, piece.path);
+        uint64_t pos = skip_lines(f.get(), piece.line_skip, piece.file_offset, piece.path, what);
+        if (compression == Compression::None) {
+            read_raw_piece(f.get(), pos, size, piece, out, per, what);
+        } else {
+            if (piece.byte_skip < 0)
+                throw Error(ErrorCode::UnsupportedFeature,
+                            what + ": \"byte skip: -1\" is only allowed with raw encoding");
+            inflate_piece(f.get(), piece, out, per, what);
+        }
+        out += per;
+    }
+    if (file_endian != host_endian()) swap_bytes(volume.data.data(), volume.data.size(), value_size(volume.type));
+}
+
+uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Compression compression,
+                       bool gzip_wrapper) {
+    const std::size_t width = value_size(volume.type);
+    const bool swap = endian != host_endian() && width > 1;
+    const std::byte* src = volume.data.data();
+    const uint64_t total = volume.data.size();
+    const std::size_t chunk = kIoChunk - kIoChunk % width;
+    std::vector<std::byte> buf;
+    if (swap || compression != Compression::None) buf.resize(std::min<uint64_t>(chunk, total));
+    const uint64_t start = out.size();
+
+    if (compression == Compression::None) {
+        for (uint64_t done = 0; done < total;) {
+            std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(chunk, total - done));
+            if (swap) {
+                std::memcpy(buf.data(), src + done, n);
+                swap_bytes(buf.data(), n, width);
+                out.write(buf.data(), n);
+            } else {
+                out.write(src + done, n);
+            }
+            done += n;
+        }
+        return out.size() - start;
+    }
+
+    z_stream zs{};
+    if (deflateInit2(&zs, 6, Z_DEFLATED, gzip_wrapper ? 15 + 16 : 15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+        throw Error(ErrorCode::IoError, "cannot initialise zlib for '" + out.target() + "'");
+    struct Guard {
+        z_stream* z;
+        ~Guard() { deflateEnd(z); }
+    } guard{&zs};
+    std::vector<unsigned char> zout(kZChunk);
+    uint64_t done = 0;
+    int flush = Z_NO_FLUSH;
+    do {
+        if (zs.avail_in == 0 && flush != Z_FINISH) {
+            std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(chunk, total - done));
+            std::memcpy(buf.data(), src + done, n);
+            if (swap) swap_bytes(buf.data(), n, width);
+            done += n;
+            zs.next_in = reinterpret_cast<Bytef*>(buf.data());
+            zs.avail_in = static_cast<uInt>(n);
+            if (done == total) flush = Z_FINISH;
+        }
+        zs.next_out = zout.data();
+        zs.avail_out = static_cast<uInt>(zout.size());
+        int rc = deflate(&zs, flush);
+        if (rc == Z_STREAM_ERROR) throw Error(ErrorCode::IoError, "zlib failed for '" + out.target() + "'");
+        out.write(zout.data(), zout.size() - zs.avail_out);
+        if (rc == Z_STREAM_END) break;
+    } while (true);
+    return out.size() - start;
+}
+
+std::string trim(std::string_view s) {
+    std::size_t b = 0, e = s.size();
+    while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+    while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
+    return std::string(s.substr(b, e - b));
+}
+
+std::string to_lower(std::string_view s) {
+    std::string r(s);
+    for (auto& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return r;
+}
+
+std::vector<std::string> split_ws(std::string_view s) {
+    std::vector<std::string> out;
+    std::size_t i = 0;
+    while (i < s.size()) {
+        while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
+        std::size_t b = i;
+        while (i < s.size() && !std::isspace(static_cast<unsigned char>(s[i]))) ++i;
+        if (i > b) out.emplace_back(s.substr(b, i - b));
+    }
+    return out;
+}
+
+double parse_double(const std::string& s, const std::string& what) {
+    std::string l = to_lower(s);
+    if (l == "nan") return std::nan("");
+    if (l == "inf" || l == "+inf") return INFINITY;
+    if (l == "-inf") return -INFINITY;
+    double v = 0;
+    const char* b = s.data();
+    if (!s.empty() && s[0] == '+') ++b;
+    auto [p, ec] = std::from_chars(b, s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size())
+        throw Error(ErrorCode::CorruptData, what + ": '" + s + "' is not a number");
+    return v;
+}
+
+int64_t parse_int(const std::string& s, const std::string& what) {
+    int64_t v = 0;
+    const char* b = s.data();
+    if (!s.empty() && s[0] == '+') ++b;
+    auto [p, ec] = std::from_chars(b, s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size())
+        throw Error(ErrorCode::CorruptData, what + ": '" + s + "' is not an integer");
+    return v;
+}
+
+std::string format_double(double v) {
+    char buf[64];
+    auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
+    (void)ec;
+    return std::string(buf, p);
+}
+
+std::string resolve_beside(const std::string& header_path, const std::string& name) {
+    std::filesystem::path n(name);
+    if (n.is_absolute()) return name;
+    return (std::filesystem::path(header_path).parent_path() / n).string();
+}
+
+std::string format_file_pattern(const std::string& pattern, int64_t n, const std::string& what) {
+    // Exactly one conversion: %[flags][width]d (also i, u, x, X, o); "%%" is a literal %.
+    std::string out;
+    int conversions = 0;
+    for (std::size_t i = 0; i < pattern.size(); ++i) {
+        char c = pattern[i];
+        if (c != '%') {
+            out += c;
+            continue;
+        }
+        if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+            out += '%';
+            ++i;
+            continue;
+        }
+        std::size_t j = i + 1;
+        while (j < pattern.size() && std::strchr("-+ #0123456789", pattern[j])) ++j;
+        if (j >= pattern.size() || !std::strchr("diuxXo", pattern[j]) || j - i > 8)
+            throw Error(ErrorCode::CorruptData,
+                        what + ": data file pattern '" + pattern + "' needs one integer conversion such as %d");
+        std::string spec = pattern.substr(i, j - i) + "ll" + pattern[j];
+        char buf[64];
+        std::snprintf(buf, sizeof buf, spec.c_str(), static_cast<long long>(n));
+        out += buf;
+        ++conversions;
+        i = j;
+    }
+    if (conversions != 1)
+        throw Error(ErrorCode::CorruptData,
+                    what + ": data file pattern '" + pattern + "' needs exactly one integer conversion such as %d");
+    return out;
+}
+
+}  // namespace tetlod::detail

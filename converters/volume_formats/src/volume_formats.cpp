@@ -1,0 +1,1 @@
+#include "tetlod/converters/volume_formats.hpp"
