@@ -1,0 +1,575 @@
+// HT <-> .tlod sections (spec/tlod-format.md §6-§8).
+//
+// Field: points are coded cycle by cycle, coarse to fine. A point of cycle t
+// (coordinates multiples of h = 2^t, not all of 2h) is predicted by the floor of
+// the mean of its coarser neighbours c + sum_{i odd} (+-h) e_i that lie in the
+// data box: the endpoints of the edge it bisects (class 2), the four corners of
+// the face (class 1) or the eight corners of the cube (class 0) whose centre it
+// is. Those neighbours are multiples of 2h, hence in coarser cycles, so every
+// chunk depends only on chunks of coarser cycles. Values are integers in the
+// "value domain" (floats: sign-magnitude bits mapped to ordered two's
+// complement), residuals are taken modulo 2^W, zigzagged and split into byte
+// planes before zstd: bit-exact for every value type.
+#include "tetlod/codec/ht/ht_codec.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <type_traits>
+
+#include "tetlod/format/byte_io.hpp"
+
+namespace tetlod {
+
+namespace {
+
+using i128 = __int128;
+constexpr uint8_t kPredictorCoarseMean = 1;
+constexpr uint8_t kResidualZigzagPlanes = 1;
+constexpr std::size_t kHtHeaderSize = 24;
+
+// ---- value domain ----
+template <class T> struct Dom {
+    static constexpr int W = int(sizeof(T)) * 8;
+    using U = std::conditional_t<sizeof(T) == 1, uint8_t,
+              std::conditional_t<sizeof(T) == 2, uint16_t,
+              std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+    using S = std::make_signed_t<U>;
+    static int64_t get(T v) {
+        if constexpr (std::is_floating_point_v<T>) {
+            U b = std::bit_cast<U>(v);
+            S s = static_cast<S>(b);
+            if (s < 0) s = static_cast<S>(b ^ (std::numeric_limits<U>::max() >> 1));
+            return s;
+        } else {
+            return static_cast<int64_t>(v);
+        }
+    }
+    /// Value from its W-bit domain pattern.
+    static T put(U bits) {
+        if constexpr (std::is_floating_point_v<T>) {
+            S s = static_cast<S>(bits);
+            U b = s < 0 ? U(bits ^ (std::numeric_limits<U>::max() >> 1)) : bits;
+            return std::bit_cast<T>(b);
+        } else {
+            return static_cast<T>(bits);
+        }
+    }
+    static U zigzag(U r) {  // r: W-bit two's complement residual
+        return U(U(r << 1) ^ U(-(r >> (W - 1))));
+    }
+    static U unzigzag(U z) { return U((z >> 1) ^ U(-(z & 1))); }
+};
+
+// ---- geometry of chunks ----
+struct Geometry {
+    int k = 0;
+    int g = 0;
+    std::array<int64_t, 3> box_max{};
+    int64_t nx = 0, ny = 0;  // field dims (x, y)
+
+    int64_t side(int t) const { return int64_t{1} << (t + 1 + g); }
+    std::array<int64_t, 3> bricks(int t) const {
+        std::array<int64_t, 3> n{};
+        for (int a = 0; a < 3; ++a) n[a] = std::max<int64_t>(1, (box_max[a] + side(t) - 1) / side(t));
+        return n;
+    }
+    std::array<int64_t, 6> brick_box(int t, uint32_t b) const {
+        auto n = bricks(t);
+        int64_t bi[3] = {int64_t(b) % n[0], (int64_t(b) / n[0]) % n[1], int64_t(b) / (n[0] * n[1])};
+        std::array<int64_t, 6> r{};
+        for (int a = 0; a < 3; ++a) {
+            r[a] = bi[a] * side(t);
+            r[3 + a] = bi[a] == n[a] - 1 ? box_max[a] : (bi[a] + 1) * side(t) - 1;
+        }
+        return r;
+    }
+    int64_t index(int64_t x, int64_t y, int64_t z) const { return (z * ny + y) * nx + x; }
+
+    /// Calls f(x, y, z) for the points of cycle t in the box, z outer, x inner.
+    template <class F> void for_each_point(int t, const std::array<int64_t, 6>& b, F&& f) const {
+        const int64_t h = int64_t{1} << t;
+        auto up = [&](int64_t v, int64_t m) { return (v + m - 1) / m * m; };
+        if (t == k) {
+            const int64_t L = h;
+            for (int64_t z = up(b[2], L); z <= b[5]; z += L)
+                for (int64_t y = up(b[1], L); y <= b[4]; y += L)
+                    for (int64_t x = up(b[0], L); x <= b[3]; x += L) f(x, y, z);
+            return;
+        }
+        for (int64_t z = up(b[2], h); z <= b[5]; z += h) {
+            const bool ze = (z & (2 * h - 1)) == 0;
+            for (int64_t y = up(b[1], h); y <= b[4]; y += h) {
+                const bool ye = (y & (2 * h - 1)) == 0;
+                const int64_t x0 = up(b[0], h);
+                if (ze && ye) {
+                    int64_t x = (x0 & (2 * h - 1)) == 0 ? x0 + h : x0;
+                    for (; x <= b[3]; x += 2 * h) f(x, y, z);
+                } else {
+                    for (int64_t x = x0; x <= b[3]; x += h) f(x, y, z);
+                }
+            }
+        }
+    }
+    uint64_t count_points(int t, const std::array<int64_t, 6>& b) const {
+        // Closed form: multiples of h per axis minus the multiples of 2h (t < k).
+        const int64_t h = int64_t{1} << t;
+        auto cnt = [](int64_t lo, int64_t hi, int64_t m) -> int64_t {
+            if (hi < lo) return 0;
+            return hi / m - (lo + m - 1) / m + 1;
+        };
+        uint64_t all = 1, even = 1;
+        for (int a = 0; a < 3; ++a) {
+            all *= uint64_t(cnt(b[a], b[3 + a], h));
+            even *= uint64_t(cnt(b[a], b[3 + a], 2 * h));
+        }
+        return t == k ? all : all - even;
+    }
+
+    /// floor(mean of the in-box coarser neighbours) in the value domain.
+    template <class T> int64_t predict(const T* v, int t, int64_t x, int64_t y, int64_t z) const {
+        if (t == k) return 0;
+        const int64_t h = int64_t{1} << t;
+        const int64_t c[3] = {x, y, z};
+        int64_t lo[3], hi[3];
+        int shift = 0;
+        for (int a = 0; a < 3; ++a) {
+            if ((c[a] & h) != 0) {  // odd multiple of h
+                lo[a] = c[a] - h;
+                if (c[a] + h <= box_max[a]) {
+                    hi[a] = c[a] + h;
+                    ++shift;
+                } else {
+                    hi[a] = lo[a];
+                }
+            } else {
+                lo[a] = hi[a] = c[a];
+            }
+        }
+        i128 sum = 0;
+        for (int64_t zz = lo[2];; zz = hi[2]) {
+            for (int64_t yy = lo[1];; yy = hi[1]) {
+                sum += Dom<T>::get(v[index(lo[0], yy, zz)]);
+                if (hi[0] != lo[0]) sum += Dom<T>::get(v[index(hi[0], yy, zz)]);
+                if (yy == hi[1]) break;
+            }
+            if (zz == hi[2]) break;
+        }
+        return static_cast<int64_t>(sum >> shift);
+    }
+};
+
+Geometry geometry_of(const HtDomain& d, int g) {
+    Geometry G;
+    G.k = d.k;
+    G.g = g;
+    for (int a = 0; a < 3; ++a) G.box_max[a] = d.box_max[a];
+    G.nx = d.box_max[0] + 1;
+    G.ny = d.box_max[1] + 1;
+    return G;
+}
+
+std::vector<HtChunk> chunk_list(const Geometry& G) {
+    std::vector<HtChunk> out;
+    for (int t = G.k; t >= 0; --t) {
+        auto n = G.bricks(t);
+        const uint32_t nb = uint32_t(n[0] * n[1] * n[2]);
+        for (uint32_t b = 0; b < nb; ++b) {
+            HtChunk c;
+            c.cycle = t;
+            c.brick = b;
+            c.box = G.brick_box(t, b);
+            c.points = G.count_points(t, c.box);
+            c.diamonds = t == G.k ? 0 : c.points;
+            out.push_back(c);
+        }
+    }
+    return out;
+}
+
+template <class T>
+std::vector<std::byte> encode_field_chunk(const Geometry& G, const T* v, const HtChunk& c) {
+    using D = Dom<T>;
+    constexpr int B = int(sizeof(T));
+    const std::size_t n = c.points;
+    std::vector<std::byte> raw(n * B);
+    std::size_t i = 0;
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        const int64_t p = G.predict(v, c.cycle, x, y, z);
+        const typename D::U r = typename D::U(uint64_t(D::get(v[G.index(x, y, z)])) - uint64_t(p));
+        const typename D::U zz = D::zigzag(r);
+        for (int b = 0; b < B; ++b) raw[b * n + i] = std::byte(uint8_t(uint64_t(zz) >> (8 * b)));
+        ++i;
+    });
+    return raw;
+}
+
+template <class T>
+void decode_field_chunk(const Geometry& G, T* v, const HtChunk& c, const std::byte* raw) {
+    using D = Dom<T>;
+    constexpr int B = int(sizeof(T));
+    const std::size_t n = c.points;
+    std::size_t i = 0;
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        uint64_t zz = 0;
+        for (int b = 0; b < B; ++b) zz |= uint64_t(std::to_integer<uint8_t>(raw[b * n + i])) << (8 * b);
+        const typename D::U r = D::unzigzag(typename D::U(zz));
+        const int64_t p = G.predict(v, c.cycle, x, y, z);
+        v[G.index(x, y, z)] = D::put(typename D::U(uint64_t(p) + uint64_t(r)));
+        ++i;
+    });
+}
+
+std::vector<std::byte> encode_error_chunk(const Geometry& G, const std::vector<float>& e,
+                                          const HtChunk& c, int m) {
+    const std::size_t n = c.diamonds;
+    std::vector<std::byte> raw(n * 2);
+    if (n == 0) return raw;
+    std::size_t i = 0;
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        const uint16_t q = quantize_error(e[G.index(x, y, z)], m);
+        raw[i] = std::byte(uint8_t(q));
+        raw[n + i] = std::byte(uint8_t(q >> 8));
+        ++i;
+    });
+    return raw;
+}
+
+/// False when a code is out of range.
+bool decode_error_chunk(const Geometry& G, std::vector<float>& e, const HtChunk& c, int m,
+                        const std::byte* raw) {
+    const std::size_t n = c.diamonds;
+    if (n == 0) return true;
+    std::size_t i = 0;
+    bool ok = true;
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        const uint32_t q = std::to_integer<uint8_t>(raw[i]) | (uint32_t(std::to_integer<uint8_t>(raw[n + i])) << 8);
+        if (q > max_error_code(m)) ok = false;
+        e[G.index(x, y, z)] = ok ? dequantize_error(uint16_t(q), m) : std::numeric_limits<float>::infinity();
+        ++i;
+    });
+    return ok;
+}
+
+std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
+    std::vector<std::byte> h;
+    tlod::put_u8(h, uint8_t(d.k));
+    tlod::put_u8(h, d.padded ? 1 : 0);
+    tlod::put_u8(h, uint8_t(g));
+    tlod::put_u8(h, uint8_t(m));
+    tlod::put_u8(h, kPredictorCoarseMean);
+    tlod::put_u8(h, kResidualZigzagPlanes);
+    tlod::put_u16(h, 0);
+    for (int a = 0; a < 3; ++a) tlod::put_u32(h, uint32_t(d.box_max[a]));
+    tlod::put_u32(h, 0);
+    return h;
+}
+
+}  // namespace
+
+uint16_t quantize_error(float error, int m) {
+    const int shift = 23 - m;
+    if (std::isnan(error) || error == std::numeric_limits<float>::infinity())
+        return uint16_t(max_error_code(m));
+    if (!(error > 0.0f)) return 0;
+    const uint32_t bits = std::bit_cast<uint32_t>(error);
+    const uint32_t q = (bits + ((uint32_t{1} << shift) - 1)) >> shift;
+    return uint16_t(std::min(q, max_error_code(m)));
+}
+
+float dequantize_error(uint16_t code, int m) {
+    return std::bit_cast<float>(uint32_t(code) << (23 - m));
+}
+
+void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
+               const HtEncodeOptions& o) {
+    if (o.brick_log2 < 1 || o.brick_log2 > 16)
+        throw Error(ErrorCode::InvalidArgument, "brick_log2 must be in 1..16");
+    if (o.error_mantissa_bits < 0 || o.error_mantissa_bits > 7)
+        throw Error(ErrorCode::InvalidArgument, "error mantissa bits must be in 0..7");
+    const HtDomain& d = model.domain();
+    const Volume& f = model.field();
+    if (f.type != meta.type || !(d.source_dims == meta.dims))
+        throw Error(ErrorCode::InvalidArgument, "metadata does not describe the model's volume");
+    const Geometry G = geometry_of(d, o.brick_log2);
+    const std::vector<HtChunk> chunks = chunk_list(G);
+    const int m = o.error_mantissa_bits;
+
+    writer.set_features(tlod::kFeatureHt);
+    writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(meta),
+               o.zstd_level);
+    const auto hh = ht_header_bytes(d, o.brick_log2, m);
+    writer.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
+
+    std::vector<std::vector<std::byte>> fs(chunks.size()), es(chunks.size());
+    std::vector<uint64_t> fraw(chunks.size()), eraw(chunks.size());
+    // Parallel over chunks in batches so progress is reported from this thread.
+    const std::size_t batch = 64;
+    for (std::size_t s = 0; s < chunks.size(); s += batch) {
+        const std::size_t e = std::min(chunks.size(), s + batch);
+        tbb::parallel_for(s, e, [&](std::size_t i) {
+            auto raw = dispatch_value_type(f.type, [&](auto tv) {
+                using T = decltype(tv);
+                return encode_field_chunk<T>(G, f.as<T>(), chunks[i]);
+            });
+            fraw[i] = raw.size();
+            fs[i] = tlod::zstd_compress(raw, o.zstd_level);
+            auto er = encode_error_chunk(G, model.diamond_errors(), chunks[i], m);
+            eraw[i] = er.size();
+            es[i] = tlod::zstd_compress(er, o.zstd_level);
+        });
+        if (o.progress) o.progress(e, chunks.size());
+    }
+    for (std::size_t i = 0; i < chunks.size(); ++i) {
+        writer.add_stored(tlod::kSectionHtField, tlod::kSectionCritical | tlod::kSectionZstd,
+                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(fs[i]), fraw[i]);
+        writer.add_stored(tlod::kSectionHtErrors, tlod::kSectionCritical | tlod::kSectionZstd,
+                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(es[i]), eraw[i]);
+    }
+}
+
+void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
+                        const HtEncodeOptions& options) {
+    tlod::ContainerWriter w;
+    encode_ht(model, meta, w, options);
+    w.write(path);
+}
+
+Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
+    const std::string where = r.name() + ": ";
+    if (!(r.header().required_features & tlod::kFeatureHt))
+        return fail(ErrorCode::NotFound, where + "the container holds no HT model");
+    const auto& secs = r.sections();
+    // Known sections in their required order; unknown non-critical ones skipped.
+    std::vector<std::size_t> known;
+    for (std::size_t i = 0; i < secs.size(); ++i)
+        if (tlod::is_known_section_type(secs[i].type)) known.push_back(i);
+    if (known.size() < 2 || secs[known[0]].type != tlod::kSectionMetadata ||
+        secs[known[1]].type != tlod::kSectionHtHeader)
+        return fail(ErrorCode::CorruptData, where + "METADATA and HT_HEADER must be the first known sections");
+    auto mraw = r.read_section(known[0]);
+    if (!mraw) return mraw.failure();
+    auto meta = tlod::parse_metadata(*mraw);
+    if (!meta) return fail(meta.failure().code, where + meta.failure().message);
+    auto hraw = r.read_section(known[1]);
+    if (!hraw) return hraw.failure();
+    if (hraw->size() != kHtHeaderSize)
+        return fail(ErrorCode::CorruptData, where + "HT_HEADER has " + std::to_string(hraw->size()) +
+                                                " bytes, expected " + std::to_string(kHtHeaderSize));
+    tlod::ByteReader b(*hraw);
+    HtLayout L;
+    L.metadata = std::move(*meta);
+    const int k = b.u8();
+    const uint8_t flags = b.u8();
+    L.brick_log2 = b.u8();
+    L.error_mantissa_bits = b.u8();
+    const uint8_t predictor = b.u8();
+    const uint8_t coding = b.u8();
+    const uint16_t res0 = b.u16();
+    uint32_t box[3];
+    for (auto& v : box) v = b.u32();
+    const uint32_t res1 = b.u32();
+    if (flags & ~1u) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved flag bits set");
+    if (res0 || res1) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved fields not zero");
+    if (predictor != kPredictorCoarseMean || coding != kResidualZigzagPlanes)
+        return fail(ErrorCode::UnsupportedFeature, where + "HT_HEADER: unknown predictor or residual coding");
+    if (L.brick_log2 < 1 || L.brick_log2 > 16 || L.error_mantissa_bits > 7)
+        return fail(ErrorCode::CorruptData, where + "HT_HEADER: brick size or error precision out of range");
+    const Dims& dims = L.metadata.dims;
+    if (dims.x < 2 || dims.y < 2 || dims.z < 2)
+        return fail(ErrorCode::CorruptData, where + "an HT needs at least 2 samples per axis");
+    HtDomain d;
+    try {
+        d = HtDomain::for_dims(dims, flags & 1);
+    } catch (const Error& e) {
+        return fail(e.code(), where + e.what());
+    }
+    if (d.k != k || uint32_t(d.box_max[0]) != box[0] || uint32_t(d.box_max[1]) != box[1] ||
+        uint32_t(d.box_max[2]) != box[2])
+        return fail(ErrorCode::CorruptData, where + "HT_HEADER: k or box does not match the volume dims");
+    validate_dims(d.dims(), "HT box");
+    L.domain = d;
+    const Geometry G = geometry_of(d, L.brick_log2);
+    // Cheap bound on the chunk count before building the list: each chunk needs
+    // two table entries, so a table that is too short is refused here.
+    uint64_t expect = 0;
+    for (int t = G.k; t >= 0; --t) {
+        auto n = G.bricks(t);
+        expect += uint64_t(n[0] * n[1] * n[2]);
+    }
+    if (expect * 2 > known.size() - 2)
+        return fail(ErrorCode::CorruptData, where + "the file has " + std::to_string(known.size() - 2) +
+                                                " HT chunk sections, the HT_HEADER needs " +
+                                                std::to_string(expect * 2));
+    L.chunks = chunk_list(G);
+    if (L.chunks.size() * 2 != known.size() - 2)
+        return fail(ErrorCode::CorruptData, where + "extra sections after the last HT chunk");
+    const int W = int(value_size(L.metadata.type));
+    for (std::size_t i = 0; i < L.chunks.size(); ++i) {
+        HtChunk& c = L.chunks[i];
+        c.field_section = known[2 + 2 * i];
+        c.error_section = known[3 + 2 * i];
+        const auto& fs = secs[c.field_section];
+        const auto& es = secs[c.error_section];
+        if (fs.type != tlod::kSectionHtField || es.type != tlod::kSectionHtErrors ||
+            fs.arg0 != uint32_t(c.cycle) || es.arg0 != uint32_t(c.cycle) || fs.arg1 != c.brick ||
+            es.arg1 != c.brick)
+            return fail(ErrorCode::CorruptData, where + "section " + std::to_string(c.field_section) +
+                                                    ": HT chunks out of order (expected cycle " +
+                                                    std::to_string(c.cycle) + " brick " +
+                                                    std::to_string(c.brick) + ")");
+        if (fs.raw_size != c.points * W || es.raw_size != c.diamonds * 2)
+            return fail(ErrorCode::CorruptData, where + "section " + std::to_string(c.field_section) +
+                                                    ": raw size does not match the chunk's point count");
+    }
+    return L;
+}
+
+Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& req) {
+    auto layout = read_ht_layout(r);
+    if (!layout) return layout.failure();
+    HtDecoded out;
+    out.layout = std::move(*layout);
+    const HtLayout& L = out.layout;
+    const Geometry G = geometry_of(L.domain, L.brick_log2);
+    // Which chunks: walk finest to coarsest, growing the region by what the
+    // predictors of the chosen chunks touch.
+    std::vector<char> want(L.chunks.size(), 0);
+    std::array<int64_t, 6> region = req.box.value_or(std::array<int64_t, 6>{
+        0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]});
+    for (int t = std::max(0, req.finest_cycle); t <= G.k; ++t) {
+        std::array<int64_t, 6> grown = region;
+        for (std::size_t i = 0; i < L.chunks.size(); ++i) {
+            const HtChunk& c = L.chunks[i];
+            if (c.cycle != t) continue;
+            bool meet = true;
+            for (int a = 0; a < 3; ++a)
+                meet = meet && c.box[a] <= region[3 + a] && region[a] <= c.box[3 + a];
+            if (!meet) continue;
+            want[i] = 1;
+            const int64_t h = int64_t{1} << t;
+            for (int a = 0; a < 3; ++a) {
+                grown[a] = std::min(grown[a], c.box[a] - h);
+                grown[3 + a] = std::max(grown[3 + a], c.box[3 + a] + h);
+            }
+        }
+        region = grown;
+    }
+    Volume field;
+    try {
+        field = Volume::allocate(L.domain.dims(), L.metadata.type);
+        if (req.errors)
+            out.errors.assign(std::size_t(field.count()), std::numeric_limits<float>::infinity());
+    } catch (const std::bad_alloc&) {
+        return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
+    } catch (const Error& e) {
+        return fail(e.code(), r.name() + ": " + e.what());
+    }
+    if (req.errors)  // cube corners are not diamonds
+        G.for_each_point(G.k, {0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]},
+                         [&](int64_t x, int64_t y, int64_t z) { out.errors[G.index(x, y, z)] = 0.0f; });
+    const int m = L.error_mantissa_bits;
+    // One cycle at a time (chunks of a cycle depend only on coarser cycles).
+    std::size_t i = 0;
+    while (i < L.chunks.size()) {
+        std::size_t e = i;
+        while (e < L.chunks.size() && L.chunks[e].cycle == L.chunks[i].cycle) ++e;
+        std::vector<std::size_t> ids;
+        for (std::size_t j = i; j < e; ++j)
+            if (want[j]) ids.push_back(j);
+        std::vector<std::vector<std::byte>> fst(ids.size()), est(ids.size());
+        for (std::size_t j = 0; j < ids.size(); ++j) {
+            auto s = r.read_stored(L.chunks[ids[j]].field_section);
+            if (!s) return s.failure();
+            fst[j] = std::move(*s);
+            if (req.errors) {
+                auto s2 = r.read_stored(L.chunks[ids[j]].error_section);
+                if (!s2) return s2.failure();
+                est[j] = std::move(*s2);
+            }
+        }
+        std::vector<Failure> fails(ids.size(), Failure{ErrorCode::Ok, {}});
+        tbb::parallel_for(std::size_t(0), ids.size(), [&](std::size_t j) {
+            const HtChunk& c = L.chunks[ids[j]];
+            const auto& fsec = r.sections()[c.field_section];
+            auto raw = tlod::zstd_decompress(fst[j], fsec.raw_size);
+            if (!raw) {
+                fails[j] = fail(raw.failure().code, r.name() + ": section " +
+                                                        std::to_string(c.field_section) + ": " +
+                                                        raw.failure().message);
+                return;
+            }
+            dispatch_value_type(field.type, [&](auto tv) {
+                using T = decltype(tv);
+                decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
+            });
+            if (!req.errors) return;
+            auto er = tlod::zstd_decompress(est[j], r.sections()[c.error_section].raw_size);
+            if (!er) {
+                fails[j] = fail(er.failure().code, r.name() + ": section " +
+                                                       std::to_string(c.error_section) + ": " +
+                                                       er.failure().message);
+                return;
+            }
+            if (!decode_error_chunk(G, out.errors, c, m, er->data()))
+                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
+                                                            std::to_string(c.error_section) +
+                                                            ": error code out of range");
+        });
+        for (const Failure& f : fails)
+            if (f.code != ErrorCode::Ok) return f;
+        out.chunks_decoded += ids.size();
+        i = e;
+    }
+    field.spacing = L.metadata.spacing;
+    field.origin = L.metadata.origin;
+    field.field_name = L.metadata.field_name();
+    field.units = L.metadata.units();
+    field.metadata = L.metadata.user_keys;
+    out.field = std::move(field);
+    return out;
+}
+
+Expected<Volume> decode_volume(tlod::ContainerReader& r) {
+    HtDecodeRequest req;
+    req.errors = false;
+    auto d = decode_ht(r, req);
+    if (!d) return d.failure();
+    Volume& f = d->field;
+    const Dims src = d->layout.metadata.dims;
+    if (f.dims == src) return std::move(f);
+    Volume out = Volume::allocate(src, f.type);
+    const std::size_t w = value_size(f.type);
+    for (int64_t z = 0; z < src.z; ++z)
+        for (int64_t y = 0; y < src.y; ++y)
+            std::memcpy(out.data.data() + std::size_t(src.index(0, y, z)) * w,
+                        f.data.data() + std::size_t(f.dims.index(0, y, z)) * w, std::size_t(src.x) * w);
+    out.spacing = f.spacing;
+    out.origin = f.origin;
+    out.field_name = f.field_name;
+    out.units = f.units;
+    out.metadata = f.metadata;
+    return out;
+}
+
+HtModel load_ht_model(const std::string& path) {
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) throw Error(r.failure().code, r.failure().message);
+    auto d = decode_ht(*r);
+    if (!d) throw Error(d.failure().code, d.failure().message);
+    return HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors));
+}
+
+bool is_tlod_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    char m[8] = {};
+    if (!in.read(m, 8)) return false;
+    return std::memcmp(m, tlod::kMagic, 8) == 0;
+}
+
+}  // namespace tetlod

@@ -1,0 +1,297 @@
+// Selective refinement on the HT (shared notes ht.md §5-6).
+//
+// Phase 1 (split set): push every tet that violates its bound, starting from the
+// roots; popping a tet forces its diamond split, first forcing the diamond's
+// parents (a diamond's tets exist only once all its parents are split), then
+// pushes the violating children of the diamond's tets. Every split is forced,
+// so the result is the unique coarsest conforming mesh that honours the query.
+// Phase 2 (emit): walk the bisection tree from the 6 roots with Maubach's
+// ordered tets; a tet whose diamond is split recurses, any other is output.
+//
+// Data box B = [0,bx]x[0,by]x[0,bz] inside the cube [0,L]^3: tets outside B are
+// never output nor split for their own sake; tets crossing B's far faces always
+// violate. Diamonds centred outside B therefore never need an error (all their
+// tets cross or lie outside); their split marks live in a small hash set.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <unordered_set>
+#include <vector>
+
+#include "ht_geometry.hpp"
+#include "tet_box.hpp"
+#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+namespace {
+
+using ht::BoxRelation;
+using ht::DiamondInfo;
+using ht::Pt;
+using ht::Tet;
+
+/// A tet waiting in the violation stack: vertices with the spine first.
+struct PendingTet {
+    Tet v;
+    uint8_t level;
+};
+
+uint64_t pack(const Pt& p) {
+    return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
+}
+
+class Refiner {
+public:
+    Refiner(const HtModel& model, const LodQuery& q)
+        : dom_(model.domain()),
+          field_(model.field()),
+          err_(model.diamond_errors()),
+          q_(q),
+          X_(model.field().dims.x),
+          XY_(model.field().dims.x * model.field().dims.y),
+          n_(model.field().count()) {
+        split_.assign(static_cast<std::size_t>((n_ + 63) / 64), 0);
+        vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
+        eps_in_ = q.full ? -1.0 : q.error_in;
+        eps_out_ = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
+        if (q.box) {
+            const auto& b = *q.box;
+            box_ = ht::IBox{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+        }
+    }
+
+    TetMesh run(HtExtractStats* stats) {
+        mesh_.geometry.spacing = field_.spacing;
+        mesh_.geometry.origin = field_.origin;
+        mesh_.field_name = field_.field_name;
+        // Cube corners inside B are vertices of every mesh.
+        for (int m = 0; m < 8; ++m) {
+            Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};
+            if (dom_.in_box(c[0], c[1], c[2])) add_vertex(c);
+        }
+        ht::MTet roots[6];
+        ht::maubach_roots(dom_.L, roots);
+        for (const auto& r : roots) {
+            PendingTet p{spine_first(r.v, r.tag), 0};
+            if (!ok(p)) pending_.push_back(p);
+        }
+        while (!pending_.empty()) {
+            PendingTet t = pending_.back();
+            pending_.pop_back();
+            force(ht::midpoint(t.v[0], t.v[1]));
+        }
+        emit(roots);
+        if (stats) {
+            stats->max_error = max_error_;
+            stats->split_diamonds = split_count_;
+            stats->visited_tets = visited_;
+        }
+        return std::move(mesh_);
+    }
+
+private:
+    static Tet spine_first(const Tet& v, int tag) {
+        Tet t{v[0], v[tag], {}, {}};
+        int n = 2;
+        for (int i = 1; i < 4; ++i)
+            if (i != tag) t[n++] = v[i];
+        return t;
+    }
+
+    int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
+    bool in_box(const Pt& p) const { return dom_.in_box(p[0], p[1], p[2]); }
+
+    bool is_split(const Pt& c) const {
+        if (in_box(c)) {
+            const int64_t i = index(c);
+            return (split_[i >> 6] >> (i & 63)) & 1;
+        }
+        return outside_split_.count(pack(c)) != 0;
+    }
+
+    void add_vertex(const Pt& p) {
+        const int64_t i = index(p);
+        vertex_id_[i] = uint32_t(mesh_.points.size());
+        mesh_.points.push_back(p);
+        mesh_.values.push_back(field_.value(i));
+    }
+
+    double vertex_value(const Pt& p) const { return field_.value(index(p)); }
+
+    bool in_region(const PendingTet& t, double err) const {
+        if (q_.box && !ht::tet_meets_box(t.v, *box_)) return false;
+        if (!q_.isovalues.empty()) {
+            double lo = vertex_value(t.v[0]), hi = lo;
+            for (int i = 1; i < 4; ++i) {
+                const double f = vertex_value(t.v[i]);
+                lo = std::min(lo, f), hi = std::max(hi, f);
+            }
+            // Every grid point p of the tet has |f(p) - L_T(p)| <= err and L_T lies
+            // between the vertex values, so f over the tet lies in [lo-err, hi+err].
+            lo -= err, hi += err;
+            bool hit = false;
+            for (double v : q_.isovalues) hit = hit || (lo <= v && v <= hi);
+            if (!hit) return false;
+        }
+        return true;
+    }
+
+    /// Does the tet satisfy its bound (or need no split for its own sake)?
+    bool ok(const PendingTet& t) const {
+        switch (ht::classify_against_data_box(t.v, dom_.box_max)) {
+            case BoxRelation::Outside: return true;
+            case BoxRelation::Crossing: return false;
+            case BoxRelation::Inside: break;
+        }
+        if (t.level >= dom_.max_level()) return true;
+        const double err = err_[index(ht::midpoint(t.v[0], t.v[1]))];
+        if (err <= std::min(eps_in_, eps_out_)) return true;  // no region test needed
+        if (!q_.has_region()) return err <= eps_in_;
+        return err <= (in_region(t, err) ? eps_in_ : eps_out_);
+    }
+
+    void force(const Pt& start) {
+        if (is_split(start)) return;
+        stack_.clear();
+        stack_.push_back(start);
+        while (!stack_.empty()) {
+            const Pt c = stack_.back();
+            if (is_split(c)) {
+                stack_.pop_back();
+                continue;
+            }
+            const DiamondInfo d = ht::classify_centre(c, dom_.k);
+            Pt parents[4];
+            const int np = ht::diamond_parents(c, d, dom_.L, parents);
+            bool ready = true;
+            for (int i = 0; i < np; ++i)
+                if (!is_split(parents[i])) {
+                    stack_.push_back(parents[i]);
+                    ready = false;
+                }
+            if (!ready) continue;
+            stack_.pop_back();
+            mark_split(c);
+            Tet tets[8];
+            const int nt = ht::diamond_tets(c, d, dom_.L, tets);
+            for (int i = 0; i < nt; ++i) {
+                if (ht::classify_against_data_box(tets[i], dom_.box_max) == BoxRelation::Outside)
+                    continue;
+                const Tet& t = tets[i];
+                // children: replace one spine end by the centre; respine each
+                for (int side = 0; side < 2; ++side) {
+                    PendingTet ch;
+                    ch.level = uint8_t(d.level + 1);
+                    Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
+                    ch.v = respine(v);
+                    if (!ok(ch)) pending_.push_back(ch);
+                }
+            }
+        }
+    }
+
+    /// Puts the longest edge first (it is unique in the HT).
+    static Tet respine(const Tet& v) {
+        static constexpr int kE[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2},
+                                         {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
+        int best = 0;
+        int64_t bl = -1;
+        for (int e = 0; e < 6; ++e) {
+            const int64_t l = ht::dist2(v[kE[e][0]], v[kE[e][1]]);
+            if (l > bl) bl = l, best = e;
+        }
+        return Tet{v[kE[best][0]], v[kE[best][1]], v[kE[best][2]], v[kE[best][3]]};
+    }
+
+    void mark_split(const Pt& c) {
+        ++split_count_;
+        if (in_box(c)) {
+            const int64_t i = index(c);
+            split_[i >> 6] |= uint64_t{1} << (i & 63);
+            add_vertex(c);
+        } else {
+            outside_split_.insert(pack(c));
+        }
+    }
+
+    void emit(const ht::MTet roots[6]) {
+        std::vector<ht::MTet> stack(roots, roots + 6);
+        std::reverse(stack.begin(), stack.end());
+        const int max_level = dom_.max_level();
+        while (!stack.empty()) {
+            const ht::MTet t = stack.back();
+            stack.pop_back();
+            ++visited_;
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) continue;
+            bool refine = rel == BoxRelation::Crossing;
+            float err = 0;
+            if (!refine && t.level < max_level) {
+                const Pt c = ht::maubach_centre(t);
+                const int64_t i = index(c);
+                refine = (split_[i >> 6] >> (i & 63)) & 1;
+                err = err_[i];
+            }
+            if (refine) {
+                ht::MTet c1, c2;
+                ht::maubach_bisect(t, c1, c2);
+                stack.push_back(c2);
+                stack.push_back(c1);
+                continue;
+            }
+            output(t, err);
+        }
+    }
+
+    void output(const ht::MTet& t, float err) {
+        std::array<uint32_t, 4> ids;
+        for (int i = 0; i < 4; ++i) ids[i] = vertex_id_[index(t.v[i])];
+        if (ht::orient(t.v[0], t.v[1], t.v[2], t.v[3]) < 0) std::swap(ids[2], ids[3]);
+        mesh_.tets.push_back(ids);
+        mesh_.level.push_back(t.level);
+        mesh_.error.push_back(err);
+        max_error_ = std::max(max_error_, double(err));
+    }
+
+    const HtDomain& dom_;
+    const Volume& field_;
+    const std::vector<float>& err_;
+    const LodQuery& q_;
+    const int64_t X_, XY_, n_;
+    double eps_in_ = 0, eps_out_ = 0;
+    std::optional<ht::IBox> box_;
+
+    std::vector<uint64_t> split_;
+    std::unordered_set<uint64_t> outside_split_;
+    std::unique_ptr<uint32_t[]> vertex_id_;  // valid only at vertices (split centres, corners)
+    std::vector<PendingTet> pending_;
+    std::vector<Pt> stack_;
+    TetMesh mesh_;
+    double max_error_ = 0;
+    uint64_t split_count_ = 0, visited_ = 0;
+};
+
+}  // namespace
+
+TetMesh HtModel::extract(const LodQuery& query, HtExtractStats* stats) const {
+    if (query.box) {
+        const auto& b = *query.box;
+        for (int a = 0; a < 3; ++a)
+            if (b[a] > b[a + 3])
+                throw Error(ErrorCode::InvalidArgument,
+                            "query box: lower corner exceeds the upper corner on axis " +
+                                std::string(1, "xyz"[a]));
+    }
+    for (double v : query.isovalues)
+        if (!std::isfinite(v))
+            throw Error(ErrorCode::InvalidArgument, "isovalue must be finite");
+    if (std::isnan(query.error_in) || std::isnan(query.error_out))
+        throw Error(ErrorCode::InvalidArgument, "error bound is NaN");
+    Refiner r(*this, query);
+    return r.run(stats);
+}
+
+}  // namespace tetlod
