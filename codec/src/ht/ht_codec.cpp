@@ -349,13 +349,14 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     std::vector<std::size_t> known;
     for (std::size_t i = 0; i < secs.size(); ++i)
         if (tlod::is_known_section_type(secs[i].type)) known.push_back(i);
-    if (known.size() < 2 || secs[known[0]].type != tlod::kSectionMetadata ||
-        secs[known[1]].type != tlod::kSectionHtHeader)
-        return fail(ErrorCode::CorruptData, where + "METADATA and HT_HEADER must be the first known sections");
+    if (known.empty() || secs[known[0]].type != tlod::kSectionMetadata)
+        return fail(ErrorCode::CorruptData, where + "METADATA must be the first known section");
     auto mraw = r.read_section(known[0]);
     if (!mraw) return mraw.failure();
     auto meta = tlod::parse_metadata(*mraw);
     if (!meta) return fail(meta.failure().code, where + meta.failure().message);
+    if (known.size() < 2 || secs[known[1]].type != tlod::kSectionHtHeader)
+        return fail(ErrorCode::CorruptData, where + "HT_HEADER must follow METADATA");
     auto hraw = r.read_section(known[1]);
     if (!hraw) return hraw.failure();
     if (hraw->size() != kHtHeaderSize)
