@@ -15,6 +15,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <bit>
 #include <cfloat>
 #include <cmath>
 #include <limits>
@@ -28,7 +29,7 @@
 namespace tetlod::ht {
 namespace {
 
-constexpr int32_t kTemplateMaxH = 4;
+constexpr int32_t kTemplateMaxH = 8;
 
 int64_t floor_div(int64_t a, int64_t b) {  // b > 0
     int64_t q = a / b;
@@ -202,45 +203,46 @@ public:
             const int cls = level % 3;
             const int t = dom_.k - 1 - level / 3;
             const int32_t h = int32_t{1} << t;
-            // Templates keyed by the centre's residues mod 4h (they fix the spine
+            // Templates indexed by the centre's residues mod 4h (they fix the spine
             // directions), built on a representative centre well inside the cube.
-            std::unordered_map<int, Template> templates;
-            const bool use_templates = h <= kTemplateMaxH && 8 * h + 3 * h + h <= dom_.L;
+            std::vector<Template> templates(64);
+            const bool use_templates = h <= kTemplateMaxH && 12 * h <= dom_.L;
             if (use_templates) {
                 for (int r = 0; r < 64; ++r) {
                     const int rr[3] = {r & 3, (r >> 2) & 3, (r >> 4) & 3};
-                    int odd = 0;
-                    for (int a = 0; a < 3; ++a) odd += rr[a] & 1;
+                    const int odd = (rr[0] & 1) + (rr[1] & 1) + (rr[2] & 1);
                     if (3 - odd != cls) continue;
                     Pt rep{8 * h + rr[0] * h, 8 * h + rr[1] * h, 8 * h + rr[2] * h};
-                    DiamondInfo d = classify_centre(rep, dom_.k);
-                    templates.emplace(r, make_template(rep, d));
+                    templates[r] = make_template(rep, classify_centre(rep, dom_.k));
                 }
             }
             // Centres of this level: coordinates that are odd multiples of h on
-            // exactly 3 - cls axes and multiples of 2h on the others.
-            tbb::parallel_for(int32_t(0), m[2] / h + 1, [&](int32_t iz) {
-                const int32_t z = iz * h;
-                for (int32_t y = 0; y <= m[1]; y += h) {
-                    for (int32_t x = 0; x <= m[0]; x += h) {
-                        const int odd = ((x / h) & 1) + ((y / h) & 1) + ((z / h) & 1);
-                        if (3 - odd != cls || odd == 0) continue;
-                        const Pt c{x, y, z};
-                        const DiamondInfo d = classify_centre(c, dom_.k);
-                        double err;
-                        const bool interior = x - h >= 0 && y - h >= 0 && z - h >= 0 &&
-                                              x + h <= m[0] && y + h <= m[1] && z + h <= m[2];
-                        if (use_templates && interior) {
-                            const int key = ((x / h) & 3) | (((y / h) & 3) << 2) |
-                                            (((z / h) & 3) << 4);
-                            err = eval_template(templates.at(key), index(c));
-                        } else {
-                            err = diamond_error(c, d);
+            // 3 - cls axes (the odd set) and multiples of 2h on the others.
+            for (int odd_mask = 1; odd_mask < 8; ++odd_mask) {
+                if (3 - std::popcount(unsigned(odd_mask)) != cls) continue;
+                const int32_t first[3] = {(odd_mask & 1) ? h : 0, (odd_mask & 2) ? h : 0,
+                                          (odd_mask & 4) ? h : 0};
+                if (first[0] > m[0] || first[1] > m[1] || first[2] > m[2]) continue;
+                const int32_t step = 2 * h;
+                const int32_t nz = (m[2] - first[2]) / step + 1;
+                tbb::parallel_for(int32_t(0), nz, [&](int32_t iz) {
+                    const int32_t z = first[2] + iz * step;
+                    const bool z_in = z - h >= 0 && z + h <= m[2];
+                    for (int32_t y = first[1]; y <= m[1]; y += step) {
+                        const bool yz_in = z_in && y - h >= 0 && y + h <= m[1];
+                        const int key_yz = (((y / h) & 3) << 2) | (((z / h) & 3) << 4);
+                        for (int32_t x = first[0]; x <= m[0]; x += step) {
+                            const Pt c{x, y, z};
+                            double err;
+                            if (use_templates && yz_in && x - h >= 0 && x + h <= m[0])
+                                err = eval_template(templates[key_yz | ((x / h) & 3)], index(c));
+                            else
+                                err = diamond_error(c, classify_centre(c, dom_.k));
+                            out[index(c)] = round_up(err, slack);
                         }
-                        out[index(c)] = round_up(err, slack);
                     }
-                }
-            });
+                });
+            }
         }
     }
 
