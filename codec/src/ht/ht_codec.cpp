@@ -131,6 +131,29 @@ struct Geometry {
         return t == k ? all : all - even;
     }
 
+    /// Spec §8.2: quantized |f(c) - (f(A) + f(B)) / 2| over the spine A-B of the
+    /// diamond centred at c (a lower bound of its error), 0 when A or B is outside B.
+    template <class T> uint16_t spine_code(const T* v, int t, int64_t x, int64_t y, int64_t z, int m) const {
+        const int64_t h = int64_t{1} << t;
+        const int64_t c[3] = {x, y, z};
+        int64_t a[3], b[3];
+        for (int i = 0; i < 3; ++i) {
+            if ((c[i] & h) != 0) {
+                const int64_t sig = ((c[i] + h) & (4 * h - 1)) == 0 ? 1 : -1;
+                a[i] = c[i] + sig * h;
+                b[i] = c[i] - sig * h;
+            } else {
+                a[i] = b[i] = c[i];
+            }
+            if (a[i] < 0 || a[i] > box_max[i] || b[i] < 0 || b[i] > box_max[i]) return 0;
+        }
+        const double fa = static_cast<double>(v[index(a[0], a[1], a[2])]);
+        const double fb = static_cast<double>(v[index(b[0], b[1], b[2])]);
+        const double fc = static_cast<double>(v[index(x, y, z)]);
+        const double lb = std::fabs(fc - 0.5 * (fa + fb));
+        return quantize_error(static_cast<float>(lb), m);
+    }
+
     /// floor(mean of the in-box coarser neighbours) in the value domain.
     template <class T> int64_t predict(const T* v, int t, int64_t x, int64_t y, int64_t z) const {
         if (t == k) return 0;
@@ -225,14 +248,16 @@ void decode_field_chunk(const Geometry& G, T* v, const HtChunk& c, const std::by
     });
 }
 
-std::vector<std::byte> encode_error_chunk(const Geometry& G, const std::vector<float>& e,
+template <class T>
+std::vector<std::byte> encode_error_chunk(const Geometry& G, const T* v, const std::vector<float>& e,
                                           const HtChunk& c, int m) {
     const std::size_t n = c.diamonds;
     std::vector<std::byte> raw(n * 2);
     if (n == 0) return raw;
     std::size_t i = 0;
     G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
-        const uint16_t q = quantize_error(e[G.index(x, y, z)], m);
+        const uint16_t q = uint16_t(quantize_error(e[G.index(x, y, z)], m) -
+                                    G.spine_code(v, c.cycle, x, y, z, m));
         raw[i] = std::byte(uint8_t(q));
         raw[n + i] = std::byte(uint8_t(q >> 8));
         ++i;
@@ -241,14 +266,16 @@ std::vector<std::byte> encode_error_chunk(const Geometry& G, const std::vector<f
 }
 
 /// False when a code is out of range.
-bool decode_error_chunk(const Geometry& G, std::vector<float>& e, const HtChunk& c, int m,
+template <class T>
+bool decode_error_chunk(const Geometry& G, const T* v, std::vector<float>& e, const HtChunk& c, int m,
                         const std::byte* raw) {
     const std::size_t n = c.diamonds;
     if (n == 0) return true;
     std::size_t i = 0;
     bool ok = true;
     G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
-        const uint32_t q = std::to_integer<uint8_t>(raw[i]) | (uint32_t(std::to_integer<uint8_t>(raw[n + i])) << 8);
+        const uint32_t d = std::to_integer<uint8_t>(raw[i]) | (uint32_t(std::to_integer<uint8_t>(raw[n + i])) << 8);
+        const uint32_t q = (d + G.spine_code(v, c.cycle, x, y, z, m)) & 0xFFFFu;
         if (q > max_error_code(m)) ok = false;
         e[G.index(x, y, z)] = ok ? dequantize_error(uint16_t(q), m) : std::numeric_limits<float>::infinity();
         ++i;
@@ -319,7 +346,10 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
             });
             fraw[i] = raw.size();
             fs[i] = tlod::zstd_compress(raw, o.zstd_level);
-            auto er = encode_error_chunk(G, model.diamond_errors(), chunks[i], m);
+            auto er = dispatch_value_type(f.type, [&](auto tv) {
+                using T = decltype(tv);
+                return encode_error_chunk<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m);
+            });
             eraw[i] = er.size();
             es[i] = tlod::zstd_compress(er, o.zstd_level);
         });
@@ -517,7 +547,11 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
                                                        er.failure().message);
                 return;
             }
-            if (!decode_error_chunk(G, out.errors, c, m, er->data()))
+            const bool codes_ok = dispatch_value_type(field.type, [&](auto tv) {
+                using T = decltype(tv);
+                return decode_error_chunk<T>(G, field.as<T>(), out.errors, c, m, er->data());
+            });
+            if (!codes_ok)
                 fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
                                                             std::to_string(c.error_section) +
                                                             ": error code out of range");
