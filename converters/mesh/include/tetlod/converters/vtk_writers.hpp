@@ -1,0 +1,37 @@
+#pragma once
+// VTK writers for extracted tetrahedral meshes, readable by ParaView, VisIt and
+// the VTK library:
+//  - XML UnstructuredGrid (.vtu), binary appended data with UInt64 headers,
+//    optionally zlib-compressed the way vtkZLibDataCompressor does it;
+//  - legacy (.vtk) BINARY UNSTRUCTURED_GRID, big-endian as that format requires.
+// Both carry: points in world coordinates (mesh.geometry applied) as Float64,
+// the field as point data named mesh.field_name (Float64), and cell data
+// "level" (UInt8) and "error" (Float32) when the mesh has them. Cells are VTK
+// tetrahedra (type 10) with the mesh's vertex order, positive in index space.
+#include <cstddef>
+#include <string>
+
+#include "tetlod/core/tet_mesh.hpp"
+
+namespace tetlod {
+
+struct VtuWriteOptions {
+    /// zlib-compress every array (vtkZLibDataCompressor layout).
+    bool compress = true;
+    /// zlib level 1..9; 6 is zlib's own default trade-off.
+    int compression_level = 6;
+    /// Uncompressed bytes per compressed block (VTK's default is 32 KiB).
+    std::size_t block_size = 32768;
+};
+
+/// Writes `mesh` as a .vtu file, atomically. Throws tetlod::Error:
+/// InvalidArgument when the mesh is inconsistent (array sizes, vertex ids out of
+/// range), IoError when the file cannot be written.
+void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptions& options = {});
+
+/// Writes `mesh` as a legacy .vtk file (version 3.0 layout, 32-bit cell ids),
+/// atomically. Throws like write_vtu, and TooLarge when the mesh exceeds the
+/// legacy format's 32-bit cell array.
+void write_vtk_legacy(const TetMesh& mesh, const std::string& path);
+
+}  // namespace tetlod

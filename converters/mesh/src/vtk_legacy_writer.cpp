@@ -1,0 +1,100 @@
+// Legacy VTK writer ("VTK File Formats", simple legacy formats): a text header
+// and BINARY sections, which the format defines as big-endian whatever the host.
+// We write the version 3.0 layout (CELLS with a 32-bit count per cell) because
+// every VTK reader since the 1990s accepts it.
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "mesh_check.hpp"
+#include "tetlod/converters/vtk_writers.hpp"
+#include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+namespace {
+
+// Collects values as big-endian bytes.
+class BigEndianBuffer {
+public:
+    template <class T>
+    void put(T v) {
+        std::byte b[sizeof(T)];
+        std::memcpy(b, &v, sizeof(T));
+        if constexpr (std::endian::native == std::endian::little) std::reverse(b, b + sizeof(T));
+        bytes_.insert(bytes_.end(), b, b + sizeof(T));
+    }
+    void flush_to(AtomicFile& out) {
+        out.write(bytes_.data(), bytes_.size());
+        out.write(std::string_view("\n"));
+        bytes_.clear();
+    }
+
+private:
+    std::vector<std::byte> bytes_;
+};
+
+// Legacy data names are whitespace-delimited tokens.
+std::string legacy_name(const std::string& s) {
+    std::string r = s.empty() ? "value" : s;
+    for (char& c : r)
+        if (std::isspace(static_cast<unsigned char>(c))) c = '_';
+    return r;
+}
+
+}  // namespace
+
+void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
+    detail::check_tet_mesh(mesh, path);
+    const std::size_t np = mesh.points.size();
+    const std::size_t nt = mesh.tets.size();
+    constexpr auto kIntMax = static_cast<std::size_t>(std::numeric_limits<int32_t>::max());
+    if (np > kIntMax || 5 * nt > kIntMax)
+        throw Error(ErrorCode::TooLarge, "cannot write '" + path + "': " + std::to_string(nt) +
+                                             " tets exceed the legacy .vtk format's 32-bit cell "
+                                             "array; write .vtu instead");
+
+    AtomicFile out(path);
+    BigEndianBuffer buf;
+    out.write("# vtk DataFile Version 3.0\ntetlod tetrahedral mesh\nBINARY\n"
+              "DATASET UNSTRUCTURED_GRID\nPOINTS " + std::to_string(np) + " double\n");
+    for (const auto& p : mesh.points)
+        for (double c : mesh.geometry.world(p)) buf.put(c);
+    buf.flush_to(out);
+
+    out.write("CELLS " + std::to_string(nt) + " " + std::to_string(5 * nt) + "\n");
+    for (const auto& t : mesh.tets) {
+        buf.put(int32_t{4});
+        for (uint32_t v : t) buf.put(static_cast<int32_t>(v));
+    }
+    buf.flush_to(out);
+    out.write("CELL_TYPES " + std::to_string(nt) + "\n");
+    for (std::size_t i = 0; i < nt; ++i) buf.put(int32_t{10});  // VTK_TETRA
+    buf.flush_to(out);
+
+    out.write("POINT_DATA " + std::to_string(np) + "\nSCALARS " + legacy_name(mesh.field_name) +
+              " double 1\nLOOKUP_TABLE default\n");
+    for (double v : mesh.values) buf.put(v);
+    buf.flush_to(out);
+
+    if (!mesh.level.empty() || !mesh.error.empty()) {
+        out.write("CELL_DATA " + std::to_string(nt) + "\n");
+        if (!mesh.level.empty()) {
+            out.write(std::string_view("SCALARS level unsigned_char 1\nLOOKUP_TABLE default\n"));
+            for (uint8_t v : mesh.level) buf.put(v);
+            buf.flush_to(out);
+        }
+        if (!mesh.error.empty()) {
+            out.write(std::string_view("SCALARS error float 1\nLOOKUP_TABLE default\n"));
+            for (float v : mesh.error) buf.put(v);
+            buf.flush_to(out);
+        }
+    }
+    out.commit();
+}
+
+}  // namespace tetlod

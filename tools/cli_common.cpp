@@ -1,0 +1,221 @@
+#include "cli_common.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <limits>
+#include <vector>
+
+#include "tetlod/converters/raw_volume.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::cli {
+
+namespace {
+
+int g_verbosity = 0;
+
+// An empty flag leaves the name out: CLI11 prefixes its own when a check fails.
+Error bad(const std::string& flag, const std::string& text, const std::string& why) {
+    return Error(ErrorCode::InvalidArgument, (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
+}
+
+// Splits on commas; keeps empty fields so "1,,2" is reported, not silently merged.
+std::vector<std::string> split(const std::string& text) {
+    std::vector<std::string> parts;
+    std::size_t start = 0;
+    while (true) {
+        const auto comma = text.find(',', start);
+        parts.push_back(text.substr(start, comma - start));
+        if (comma == std::string::npos) break;
+        start = comma + 1;
+    }
+    return parts;
+}
+
+int64_t parse_int(const std::string& text, const std::string& flag, const std::string& whole) {
+    int64_t v = 0;
+    const char* end = text.data() + text.size();
+    auto [p, ec] = std::from_chars(text.data(), end, v);
+    if (ec != std::errc() || p != end) throw bad(flag, whole, "'" + text + "' is not an integer");
+    return v;
+}
+
+}  // namespace
+
+int verbosity() { return g_verbosity; }
+void set_verbosity(int level) { g_verbosity = level; }
+
+std::ostream& out() {
+    static std::ostream null_stream(nullptr);  // no buffer: every write is dropped
+    return g_verbosity < 0 ? null_stream : std::cout;
+}
+
+void detail(const std::string& message) {
+    if (g_verbosity >= 1) std::cerr << message << "\n";
+}
+
+double parse_number(const std::string& text, const std::string& flag) {
+    double v = 0.0;
+    const char* end = text.data() + text.size();
+    auto [p, ec] = std::from_chars(text.data(), end, v);
+    if (ec != std::errc() || p != end || text.empty() || !std::isfinite(v))
+        throw bad(flag, text, "not a finite number");
+    return v;
+}
+
+Dims parse_dims(const std::string& text, const std::string& flag) {
+    const auto parts = split(text);
+    if (parts.size() != 3) throw bad(flag, text, "expected X,Y,Z");
+    Dims d{parse_int(parts[0], flag, text), parse_int(parts[1], flag, text),
+           parse_int(parts[2], flag, text)};
+    for (int a = 0; a < 3; ++a)
+        if (d[a] < 2) throw bad(flag, text, "every dimension must be at least 2");
+    validate_dims(d, (flag.empty() ? "" : flag + " ") + "'" + text + "'");
+    return d;
+}
+
+Vec3 parse_vec3(const std::string& text, const std::string& flag) {
+    const auto parts = split(text);
+    if (parts.size() != 3) throw bad(flag, text, "expected three comma-separated numbers");
+    return {parse_number(parts[0], flag), parse_number(parts[1], flag), parse_number(parts[2], flag)};
+}
+
+ValueType parse_dtype(const std::string& text, const std::string& flag) {
+    const auto t = parse_value_type(text);
+    if (!t) throw bad(flag, text, "unknown type (use u8, i8, u16, i16, u32, i32, f32 or f64)");
+    return *t;
+}
+
+std::array<int64_t, 6> parse_box(const std::string& text, const std::string& flag) {
+    const auto parts = split(text);
+    if (parts.size() != 6) throw bad(flag, text, "expected x0,y0,z0,x1,y1,z1");
+    std::array<int64_t, 6> b{};
+    for (int i = 0; i < 6; ++i) b[i] = parse_int(parts[i], flag, text);
+    for (int a = 0; a < 3; ++a)
+        if (b[a] > b[a + 3]) throw bad(flag, text, "each lower corner must not exceed the upper one");
+    return b;
+}
+
+ErrorThreshold ErrorThreshold::parse(const std::string& text, const std::string& flag) {
+    if (text == "inf" || text == "unbounded" || text == "infinity")
+        return {std::numeric_limits<double>::infinity(), false};
+    ErrorThreshold t;
+    std::string number = text;
+    if (!number.empty() && number.back() == '%') {
+        t.percent = true;
+        number.pop_back();
+    }
+    t.value = parse_number(number, flag);
+    return t;
+}
+
+double ErrorThreshold::resolve(const std::array<double, 2>& range) const {
+    // Negative means "full resolution" whatever the range; keep it clearly negative
+    // (a negative percent of a zero range would otherwise become -0).
+    if (value < 0) return -1.0;
+    if (!percent) return value;
+    return value * (range[1] - range[0]) / 100.0;
+}
+
+std::function<std::string(const std::string&)> check_with(
+    std::function<void(const std::string&)> parse) {
+    return [parse](const std::string& text) -> std::string {
+        try {
+            parse(text);
+        } catch (const Error& e) {
+            return e.what();
+        }
+        return {};
+    };
+}
+
+VolumeReadOptions VolumeFlags::options() const {
+    VolumeReadOptions o;
+    if (!dims.empty()) o.dims = parse_dims(dims, "--dims");
+    if (!dtype.empty()) o.type = parse_dtype(dtype, "--dtype");
+    o.endian = endian == "big" ? Endian::Big : Endian::Little;
+    o.header_bytes = header_bytes;
+    if (!spacing.empty()) o.spacing = parse_vec3(spacing, "--spacing");
+    if (!origin.empty()) o.origin = parse_vec3(origin, "--origin");
+    return o;
+}
+
+void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
+    const std::string group = "Volume input (raw files; dims and dtype can come from a name "
+                              "like NAME_XxYxZ_DTYPE.raw)";
+    sub.add_option("--dims", f.dims, "Samples per axis X,Y,Z (x varies fastest)")
+        ->group(group)
+        ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));
+    sub.add_option("--dtype", f.dtype, "Sample type: u8|i8|u16|i16|u32|i32|f32|f64")
+        ->group(group)
+        ->check(check_with([](const std::string& s) { parse_dtype(s, ""); }));
+    sub.add_option("--endian", f.endian, "Byte order of multi-byte samples")
+        ->group(group)
+        ->capture_default_str()
+        ->check(CLI::IsMember({"little", "big"}));
+    sub.add_option("--header-bytes", f.header_bytes, "Bytes to skip before the samples")
+        ->group(group)
+        ->capture_default_str();
+    sub.add_option("--spacing", f.spacing, "Grid step sx,sy,sz in world units (default 1,1,1)")
+        ->group(group)
+        ->check(check_with([](const std::string& s) {
+            for (double c : parse_vec3(s, ""))
+                if (!(c > 0)) throw bad("", s, "every step must be positive");
+        }));
+    sub.add_option("--origin", f.origin, "World position ox,oy,oz of sample (0,0,0)")
+        ->group(group)
+        ->check(check_with([](const std::string& s) { parse_vec3(s, ""); }));
+}
+
+Volume load_volume(const std::string& path, const VolumeReadOptions& options) {
+    return read_raw_volume(path, options);
+}
+
+std::string format_bytes(uint64_t bytes) {
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+    double v = static_cast<double>(bytes);
+    int u = 0;
+    while (v >= 1024.0 && u < 4) {
+        v /= 1024.0;
+        ++u;
+    }
+    char buf[32];
+    if (u == 0)
+        std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(bytes));
+    else
+        std::snprintf(buf, sizeof buf, "%.1f %s", v, units[u]);
+    return buf;
+}
+
+std::string format_seconds(double s) {
+    char buf[32];
+    if (s < 1.0)
+        std::snprintf(buf, sizeof buf, "%.0f ms", s * 1000.0);
+    else
+        std::snprintf(buf, sizeof buf, "%.2f s", s);
+    return buf;
+}
+
+std::string format_dims(const Dims& d, char sep) {
+    return std::to_string(d.x) + sep + std::to_string(d.y) + sep + std::to_string(d.z);
+}
+
+std::string format_number(double v) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+std::string format_error(double error, const std::array<double, 2>& range) {
+    if (error < 0) return "full resolution";
+    const double width = range[1] - range[0];
+    if (std::isinf(error) || !(width > 0)) return format_number(error);
+    return format_number(error) + " (" + format_number(error * 100.0 / width) + "% of range)";
+}
+
+}  // namespace tetlod::cli

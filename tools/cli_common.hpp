@@ -1,0 +1,89 @@
+#pragma once
+// Helpers shared by the subcommands: verbosity, the volume input flags, loading
+// a volume, and parsing of thresholds, boxes and vectors. Every parse failure is
+// a tetlod::Error(InvalidArgument) naming the flag and the bad text.
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <string>
+
+#include "tetlod/converters/volume_read_options.hpp"
+#include "tetlod/core/volume.hpp"
+
+namespace CLI {
+class App;
+class Option;
+}  // namespace CLI
+
+namespace tetlod::cli {
+
+/// -1 quiet, 0 normal, 1+ verbose. Set once by main after parsing.
+int verbosity();
+void set_verbosity(int level);
+/// Where results go: stdout, or a sink that drops everything under -q.
+std::ostream& out();
+/// Verbose detail (-v) to stderr.
+void detail(const std::string& message);
+
+/// Raw-volume and geometry flags as typed; converted after parsing so errors
+/// name the flag.
+struct VolumeFlags {
+    std::string dims, dtype, endian = "little", spacing, origin;
+    uint64_t header_bytes = 0;
+    VolumeReadOptions options() const;
+};
+/// Adds --dims --dtype --endian --header-bytes --spacing --origin to `sub`, in a
+/// "Volume input" group, each validated while CLI11 parses (bad text: exit 2).
+void add_volume_flags(CLI::App& sub, VolumeFlags& flags);
+
+/// Reads a volume file. The single place that picks a reader for a path: today
+/// raw only; other formats (.nrrd, .mhd, .vdb, .h5) get routed here.
+Volume load_volume(const std::string& path, const VolumeReadOptions& options);
+
+/// Parsers; `flag` names the option in error messages (empty inside CLI11
+/// checks, which name the option themselves).
+Dims parse_dims(const std::string& text, const std::string& flag);
+Vec3 parse_vec3(const std::string& text, const std::string& flag);
+ValueType parse_dtype(const std::string& text, const std::string& flag);
+/// Inclusive index box x0,y0,z0,x1,y1,z1 with x0 <= x1, y0 <= y1, z0 <= z1.
+std::array<int64_t, 6> parse_box(const std::string& text, const std::string& flag);
+double parse_number(const std::string& text, const std::string& flag);
+
+/// An error bound as typed: absolute ("0.5"), percent of the value range
+/// ("0.1%"), unbounded ("inf", "unbounded"), or negative for full resolution.
+struct ErrorThreshold {
+    double value = 0.0;
+    bool percent = false;
+    static ErrorThreshold parse(const std::string& text, const std::string& flag);
+    /// Field units for a volume with value range [lo, hi]: percent * (hi - lo) / 100
+    /// (multiplied first so 1% of 255 is exactly 2.55). Negative stays negative.
+    double resolve(const std::array<double, 2>& range) const;
+};
+
+/// Makes a CLI11 check from a parser that throws tetlod::Error, so bad text is a
+/// parse error (exit 2) reported before any work starts. Call the parser with
+/// an empty flag name: CLI11 prefixes the option's name to the message.
+std::function<std::string(const std::string&)> check_with(
+    std::function<void(const std::string&)> parse);
+
+class Stopwatch {
+public:
+    Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    }
+
+private:
+    std::chrono::steady_clock::time_point start_;
+};
+
+std::string format_bytes(uint64_t bytes);      // "1.5 MiB"
+std::string format_seconds(double seconds);    // "12 ms", "3.40 s"
+std::string format_dims(const Dims& d, char sep = 'x');  // "65x65x65"
+std::string format_number(double v);           // 6 significant digits: "2.55", "inf"
+/// An error bound with its share of the value range: "2.55 (1% of range)".
+std::string format_error(double error, const std::array<double, 2>& range);
+
+}  // namespace tetlod::cli

@@ -1,0 +1,164 @@
+// tetlod extract: builds the multiresolution model of a volume and writes one
+// level-of-detail mesh: uniform (--error), region-driven (--box, --isovalue with
+// --error inside and --error-out elsewhere) or the full-resolution reference.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <limits>
+#include <ostream>
+
+#include "cli_common.hpp"
+#include "command.hpp"
+#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/converters/mesh_writer.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::cli {
+
+namespace {
+
+struct ExtractArgs {
+    std::string input, output, model = "ht", error, error_out = "inf", box, format;
+    std::vector<std::string> isovalues;
+    bool full = false, pad = false, no_compress = false;
+    VolumeFlags volume;
+};
+
+// Refuses a box that misses the data entirely: the query would silently be uniform.
+void check_box_meets(const std::array<int64_t, 6>& b, const Dims& dims, const std::string& text) {
+    for (int a = 0; a < 3; ++a)
+        if (b[a + 3] < 0 || b[a] > dims[a] - 1)
+            throw Error(ErrorCode::InvalidArgument,
+                        "--box '" + text + "' lies outside the volume (indices 0.." +
+                            std::to_string(dims.x - 1) + ", 0.." + std::to_string(dims.y - 1) +
+                            ", 0.." + std::to_string(dims.z - 1) + ")");
+}
+
+int run_extract(const ExtractArgs& a) {
+    if (a.model != "ht")
+        throw Error(ErrorCode::UnsupportedFeature,
+                    "--model " + a.model + ": the MT model is not yet available; use --model ht");
+    if (!a.full && a.error.empty())
+        throw Error(ErrorCode::InvalidArgument,
+                    "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
+    const bool region = !a.box.empty() || !a.isovalues.empty();
+    if (a.error_out != "inf" && !region)
+        throw Error(ErrorCode::InvalidArgument, "--error-out applies outside a region: "
+                                                "give --box and/or --isovalue too");
+    const auto error_in = a.error.empty() ? ErrorThreshold{}
+                                          : ErrorThreshold::parse(a.error, "--error");
+    const auto error_out = ErrorThreshold::parse(a.error_out, "--error-out");
+
+    Volume volume = load_volume(a.input, a.volume.options());
+    const Dims dims = volume.dims;
+    const std::string type_name = value_type_name(volume.type);
+    LodQuery query;
+    query.full = a.full;
+    if (!a.box.empty()) {
+        query.box = parse_box(a.box, "--box");
+        check_box_meets(*query.box, dims, a.box);
+    }
+    for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
+
+    HtBuildOptions build_options;
+    build_options.pad = a.pad;
+    Stopwatch build_clock;
+    const HtModel model = HtModel::build(std::move(volume), build_options);
+    const double build_seconds = build_clock.seconds();
+    const auto range = model.value_range();
+    query.error_in = error_in.resolve(range);
+    query.error_out = error_out.resolve(range);
+
+    HtExtractStats stats;
+    Stopwatch extract_clock;
+    const TetMesh mesh = model.extract(query, &stats);
+    const double extract_seconds = extract_clock.seconds();
+
+    MeshWriteOptions write_options;
+    write_options.compress = !a.no_compress;
+    Stopwatch write_clock;
+    write_tet_mesh(mesh, a.output, a.format, write_options);
+    const double write_seconds = write_clock.seconds();
+
+    auto& o = out();
+    o << "input    " << a.input << ": " << format_dims(dims) << " " << type_name << ", values "
+      << format_number(range[0]) << ".." << format_number(range[1]) << "\n";
+    o << "query    ";
+    if (a.full) {
+        o << "full resolution\n";
+    } else {
+        o << "error <= " << format_error(query.error_in, range);
+        if (region)
+            o << " in the region (" << (a.box.empty() ? "" : "box " + a.box)
+              << (!a.box.empty() && !a.isovalues.empty() ? ", " : "")
+              << (a.isovalues.empty() ? "" : std::to_string(a.isovalues.size()) + " isovalue(s)")
+              << "), " << format_error(query.error_out, range) << " elsewhere";
+        o << "\n";
+    }
+    o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
+      << " vertices, largest error " << format_error(stats.max_error, range) << "\n";
+    o << "time     build " << format_seconds(build_seconds) << ", extract "
+      << format_seconds(extract_seconds) << ", write " << format_seconds(write_seconds) << "\n";
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(a.output, ec);
+    o << "wrote    " << a.output << " (" << (ec ? std::string("?") : format_bytes(size)) << ")\n";
+    detail("model: cube side 2^" + std::to_string(model.domain().k) +
+           (model.domain().padded ? " (padded)" : "") + ", " +
+           std::to_string(stats.split_diamonds) + " diamonds split, " +
+           std::to_string(stats.visited_tets) + " tets visited");
+    return 0;
+}
+
+const CommandRegistration registration{Command{
+    "extract", "Build a model of a volume and write a level-of-detail tetrahedral mesh", 20,
+    [](CLI::App& sub) -> std::function<int()> {
+        auto a = std::make_shared<ExtractArgs>();
+        sub.add_option("input", a->input, "Input volume (raw)")->required();
+        sub.add_option("output", a->output, "Output mesh (.vtu or .vtk)")->required();
+        add_volume_flags(sub, a->volume);
+
+        const std::string lod = "Level of detail (E: absolute like 0.5, percent of the value "
+                                "range like 1%, inf, or negative = full resolution)";
+        const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
+        sub.add_option("--error", a->error, "Largest error allowed (inside the region if any)")
+            ->group(lod)
+            ->check(threshold);
+        sub.add_option("--error-out", a->error_out, "Largest error outside the region")
+            ->group(lod)
+            ->capture_default_str()
+            ->check(threshold);
+        sub.add_option("--box", a->box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
+            ->group(lod)
+            ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
+        sub.add_option("--isovalue", a->isovalues,
+                       "Region: tets an isosurface at V may cross (repeat or V1,V2)")
+            ->group(lod)
+            ->allow_extra_args(false)  // one value per flag: never swallow the positionals
+            ->delimiter(',')
+            ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
+        sub.add_flag("--full", a->full, "Full-resolution reference mesh")->group(lod);
+
+        const std::string model = "Model and output";
+        sub.add_option("--model", a->model, "Multiresolution model: ht (mt: not yet available)")
+            ->group(model)
+            ->capture_default_str()
+            ->check(CLI::IsMember({"ht", "mt"}));
+        sub.add_flag("--pad", a->pad,
+                     "Embed the volume in the enclosing (2^k+1)^3 cube (mesh covers it)")
+            ->group(model);
+        sub.add_option("--format", a->format, "Mesh format (default: from the extension)")
+            ->group(model)
+            ->check(CLI::IsMember({"vtu", "vtk"}));
+        sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed")
+            ->group(model);
+        sub.footer("Examples:\n"
+                   "  tetlod extract bucky_32x32x32_uint8.raw bucky.vtu --error 1%\n"
+                   "  tetlod extract head.raw head.vtu --dims 256,256,99 --dtype u16 \\\n"
+                   "      --error 0 --box 64,64,20,192,192,80 --error-out 5%\n"
+                   "  tetlod extract ml_65x65x65_uint8.raw iso.vtk --isovalue 128 --error 0.5");
+        return [a] { return run_extract(*a); };
+    }}};
+
+}  // namespace
+
+}  // namespace tetlod::cli
