@@ -249,8 +249,6 @@ const std::set<std::string>& structural_attributes() {
 }  // namespace
 
 Volume read_hdf5(const std::string& file, const std::string& dataset_in, const VolumeReadOptions& options) {
-    const std::string dataset = normalize_dataset(dataset_in);
-    const std::string what = name_of(file, dataset);
     silence_hdf5();
     std::error_code ec;
     if (!std::filesystem::exists(file, ec))
@@ -261,6 +259,20 @@ Volume read_hdf5(const std::string& file, const std::string& dataset_in, const V
     }
     Hid f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (!f.valid()) throw Error(ErrorCode::IoError, "cannot open '" + file + "': " + hdf5_error_text());
+    std::string dataset = normalize_dataset(dataset_in);
+    if (dataset_in.empty()) {
+        // No path given: the file's only dataset.
+        auto all = list_datasets(f.get());
+        if (all.size() == 1) {
+            dataset = all[0];
+        } else if (all.size() > 1) {
+            std::string list;
+            for (const auto& n : all) list += (list.empty() ? "" : ", ") + n;
+            throw Error(ErrorCode::InvalidArgument, "'" + file + "' holds several datasets (" + list +
+                                                        "); name one as " + file + ":/path");
+        }
+    }
+    const std::string what = name_of(file, dataset);
 
     // Walk the path one link at a time: H5Lexists on a path whose parent is
     // missing is itself an error.

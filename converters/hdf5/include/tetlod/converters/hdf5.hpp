@@ -24,6 +24,7 @@
 
 namespace tetlod {
 
+/// `dataset` empty: the file's only dataset (several: InvalidArgument listing them).
 Volume read_hdf5(const std::string& file, const std::string& dataset, const VolumeReadOptions& options = {});
 
 struct Hdf5WriteOptions {
