@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tetlod/converters/raw_volume.hpp"
+#include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
@@ -172,7 +173,7 @@ void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
 }
 
 Volume load_volume(const std::string& path, const VolumeReadOptions& options) {
-    return read_raw_volume(path, options);
+    return read_volume(path, options);
 }
 
 std::string format_bytes(uint64_t bytes) {

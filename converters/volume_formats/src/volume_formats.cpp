@@ -96,7 +96,17 @@ bool volume_format_built(VolumeFormat format) {
 }
 
 Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
-    VolumeLocation loc = locate_volume(path);
+    VolumeLocation loc;
+    try {
+        loc = locate_volume(path);
+    } catch (const Error&) {
+        // Any other name is a raw volume when its dims and type are known
+        // (flags, or a NAME_XxYxZ_DTYPE name): raw data come with all sorts of
+        // extensions (.bin, .dat, .img, none).
+        if (!(options.dims && options.type) && !parse_raw_volume_name(path)) throw;
+        loc.format = VolumeFormat::Raw;
+        loc.file = path;
+    }
     switch (loc.format) {
         case VolumeFormat::Raw: return read_raw_volume(loc.file, options);
         case VolumeFormat::Nrrd: return read_nrrd(loc.file, options);

@@ -32,7 +32,9 @@ VolumeLocation locate_volume(const std::string& path, const std::string& format 
 /// True when this build can read and write `format`.
 bool volume_format_built(VolumeFormat format);
 
-/// Reads any supported volume. Throws tetlod::Error naming the file and problem.
+/// Reads any supported volume. A name with no known extension is read as raw
+/// when options give dims and type or the name is NAME_XxYxZ_DTYPE.ext.
+/// Throws tetlod::Error naming the file and problem.
 Volume read_volume(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Writes `volume` in the format chosen by `path` (or `format`), atomically:
