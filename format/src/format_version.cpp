@@ -2,6 +2,8 @@
 #include <xxhash.h>
 #include <zstd.h>
 
+#include <cstdio>
+
 #include "tetlod/format/container.hpp"
 
 namespace tetlod::tlod {
@@ -10,6 +12,22 @@ const char* format_version_string() { return "tlod-format 1.0"; }
 
 uint64_t checksum64(std::span<const std::byte> bytes) {
     return XXH64(bytes.data(), bytes.size(), 0);
+}
+
+Expected<uint64_t> checksum64_file(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return fail(ErrorCode::IoError, "cannot open '" + path + "'");
+    XXH64_state_t* st = XXH64_createState();
+    XXH64_reset(st, 0);
+    std::vector<char> buf(1 << 20);
+    std::size_t n;
+    while ((n = std::fread(buf.data(), 1, buf.size(), f)) > 0) XXH64_update(st, buf.data(), n);
+    const bool bad = std::ferror(f) != 0;
+    std::fclose(f);
+    const uint64_t h = XXH64_digest(st);
+    XXH64_freeState(st);
+    if (bad) return fail(ErrorCode::IoError, "cannot read '" + path + "'");
+    return h;
 }
 
 std::vector<std::byte> zstd_compress(std::span<const std::byte> raw, int level) {

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -327,8 +328,25 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     const std::vector<HtChunk> chunks = chunk_list(G);
     const int m = o.error_mantissa_bits;
 
+    // Informative summary of the stored error bounds (spec §5.3), so `info`
+    // reports them without decoding any chunk.
+    tlod::Metadata md = meta;
+    {
+        float emax = 0;
+        uint64_t always = 0;
+        const auto& e = model.diamond_errors();
+        for (float v : e) {
+            const float q = dequantize_error(quantize_error(v, m), m);
+            if (std::isinf(q)) ++always;
+            else emax = std::max(emax, q);
+        }
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.9g", double(emax));
+        md.format_keys[tlod::kKeyHtErrorMax] = buf;
+        md.format_keys[tlod::kKeyHtAlwaysSplit] = std::to_string(always);
+    }
     writer.set_features(tlod::kFeatureHt);
-    writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(meta),
+    writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
                o.zstd_level);
     const auto hh = ht_header_bytes(d, o.brick_log2, m);
     writer.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());

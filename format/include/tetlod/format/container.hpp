@@ -71,6 +71,9 @@ struct SectionInfo {
 /// XXH64 with seed 0 (the container's only checksum).
 uint64_t checksum64(std::span<const std::byte> bytes);
 
+/// XXH64 (seed 0) of a whole file, streamed (provenance checksums).
+Expected<uint64_t> checksum64_file(const std::string& path);
+
 /// Compresses `raw` as one zstd frame (content size recorded, no dictionary).
 /// Throws tetlod::Error only on internal zstd failure.
 std::vector<std::byte> zstd_compress(std::span<const std::byte> raw, int level);

@@ -23,6 +23,8 @@ inline constexpr const char* kKeySourceSize = "source.size";
 inline constexpr const char* kKeyConverter = "converter";
 inline constexpr const char* kKeyToolVersion = "tool.version";
 inline constexpr const char* kKeyCreated = "created";
+inline constexpr const char* kKeyHtErrorMax = "ht.error.max";
+inline constexpr const char* kKeyHtAlwaysSplit = "ht.error.always_split";
 
 struct Metadata {
     Dims dims;                  // of the original volume

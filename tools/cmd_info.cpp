@@ -1,0 +1,163 @@
+// tetlod info: what a .tlod container holds, reading only its header, section
+// table, METADATA and HT_HEADER (fast on a multi-GB file).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "cli_common.hpp"
+#include "command.hpp"
+#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::cli {
+
+namespace {
+
+struct InfoArgs {
+    std::string input;
+    bool json = false;
+    bool sections = false;
+};
+
+struct CycleSummary {
+    int cycle = 0;
+    uint64_t chunks = 0, points = 0, field_bytes = 0, error_bytes = 0, raw_bytes = 0;
+};
+
+int run_info(const InfoArgs& a) {
+    auto r = tlod::ContainerReader::open(a.input);
+    if (!r) throw Error(r.failure().code, r.failure().message);
+    auto lay = read_ht_layout(*r);
+    if (!lay) throw Error(lay.failure().code, lay.failure().message);
+    const auto& h = r->header();
+    const auto& md = lay->metadata;
+    const auto& d = lay->domain;
+    const auto& secs = r->sections();
+    const double n = double(md.dims.count());
+
+    std::map<int, CycleSummary, std::greater<int>> cycles;
+    for (const HtChunk& c : lay->chunks) {
+        auto& s = cycles[c.cycle];
+        s.cycle = c.cycle;
+        ++s.chunks;
+        s.points += c.points;
+        s.field_bytes += secs[c.field_section].stored_size;
+        s.error_bytes += secs[c.error_section].stored_size;
+        s.raw_bytes += secs[c.field_section].raw_size + secs[c.error_section].raw_size;
+    }
+    auto levels_of = [&](int t) -> std::string {
+        if (t == d.k) return "corners";
+        const int l0 = 3 * (d.k - 1 - t);
+        return std::to_string(l0) + ".." + std::to_string(l0 + 2);
+    };
+    auto key = [&](const char* k) {
+        auto it = md.format_keys.find(k);
+        return it == md.format_keys.end() ? std::string() : it->second;
+    };
+
+    if (a.json) {
+        nlohmann::json j;
+        j["file"] = a.input;
+        j["file_size"] = h.file_size;
+        j["format_version"] = std::to_string(h.version_major) + "." + std::to_string(h.version_minor);
+        j["required_features"] = h.required_features;
+        j["optional_features"] = h.optional_features;
+        j["dims"] = {md.dims.x, md.dims.y, md.dims.z};
+        j["value_type"] = value_type_name(md.type);
+        j["spacing"] = md.spacing;
+        j["origin"] = md.origin;
+        j["value_range"] = md.value_range;
+        j["format_keys"] = md.format_keys;
+        j["user_keys"] = md.user_keys;
+        j["bytes_per_grid_point"] = double(h.file_size) / n;
+        j["models"] = nlohmann::json::array();
+        nlohmann::json m;
+        m["type"] = "HT";
+        m["k"] = d.k;
+        m["L"] = d.L;
+        m["box_max"] = d.box_max;
+        m["padded"] = d.padded;
+        m["levels"] = {0, d.max_level()};
+        m["brick_log2"] = lay->brick_log2;
+        m["error_mantissa_bits"] = lay->error_mantissa_bits;
+        m["error_max"] = key(tlod::kKeyHtErrorMax);
+        m["always_split_diamonds"] = key(tlod::kKeyHtAlwaysSplit);
+        for (const auto& [t, s] : cycles)
+            m["cycles"].push_back({{"cycle", t}, {"levels", levels_of(t)}, {"chunks", s.chunks},
+                                   {"points", s.points}, {"field_bytes", s.field_bytes},
+                                   {"error_bytes", s.error_bytes}, {"raw_bytes", s.raw_bytes}});
+        j["models"].push_back(m);
+        for (std::size_t i = 0; i < secs.size(); ++i) {
+            const auto& s = secs[i];
+            j["sections"].push_back({{"index", i}, {"type", tlod::section_type_name(s.type)},
+                                     {"type_id", s.type}, {"flags", s.flags}, {"offset", s.offset},
+                                     {"stored_size", s.stored_size}, {"raw_size", s.raw_size},
+                                     {"arg0", s.arg0}, {"arg1", s.arg1}});
+        }
+        j["bytes_read"] = r->bytes_read();
+        out() << j.dump(2) << "\n";
+        return 0;
+    }
+    auto& o = out();
+    o << a.input << ": tlod " << h.version_major << "." << h.version_minor << ", "
+      << format_bytes(h.file_size) << " (" << format_number(double(h.file_size) / n)
+      << " bytes per grid point; raw " << value_size(md.type) << ")\n";
+    o << "  volume    " << format_dims(md.dims) << " " << value_type_name(md.type) << ", field '"
+      << md.field_name() << "'" << (md.units().empty() ? "" : " [" + md.units() + "]") << ", values "
+      << format_number(md.value_range[0]) << ".." << format_number(md.value_range[1]) << "\n";
+    o << "  geometry  spacing " << format_number(md.spacing[0]) << "," << format_number(md.spacing[1])
+      << "," << format_number(md.spacing[2]) << "  origin " << format_number(md.origin[0]) << ","
+      << format_number(md.origin[1]) << "," << format_number(md.origin[2]) << "\n";
+    o << "  model     HT, k = " << d.k << " (cube " << d.L + 1 << "^3), levels 0.." << d.max_level()
+      << ", box " << d.box_max[0] + 1 << "x" << d.box_max[1] + 1 << "x" << d.box_max[2] + 1
+      << (d.padded ? " (padded)" : "") << ", bricks 2^(t+" << lay->brick_log2 + 1 << ")\n";
+    o << "  errors    per diamond, rounded up to " << lay->error_mantissa_bits
+      << " mantissa bits; max finite " << key(tlod::kKeyHtErrorMax) << ", always split "
+      << key(tlod::kKeyHtAlwaysSplit) << "\n";
+    for (const auto& [k, v] : md.format_keys)
+        if (k.rfind("ht.", 0) != 0 && k != tlod::kKeyFieldName && k != tlod::kKeyFieldUnits)
+            o << "  " << k << std::string(k.size() < 12 ? 12 - k.size() : 1, ' ') << v << "\n";
+    for (const auto& [k, v] : md.user_keys) o << "  user: " << k << " = " << v << "\n";
+    o << "  cycle  levels    chunks     points   field bytes  error bytes   B/pt (of all)\n";
+    for (const auto& [t, s] : cycles) {
+        char line[160];
+        std::snprintf(line, sizeof line, "  %5d  %-8s %7llu %10llu %13llu %12llu   %.3f\n", t,
+                      levels_of(t).c_str(), (unsigned long long)s.chunks,
+                      (unsigned long long)s.points, (unsigned long long)s.field_bytes,
+                      (unsigned long long)s.error_bytes,
+                      double(s.field_bytes + s.error_bytes) / n);
+        o << line;
+    }
+    if (a.sections) {
+        o << "  section  type        flags      offset     stored        raw  arg0  arg1\n";
+        for (std::size_t i = 0; i < secs.size(); ++i) {
+            const auto& s = secs[i];
+            char line[160];
+            std::snprintf(line, sizeof line, "  %7zu  %-10s  0x%02x %11llu %10llu %10llu %5u %5u\n", i,
+                          tlod::section_type_name(s.type), s.flags, (unsigned long long)s.offset,
+                          (unsigned long long)s.stored_size, (unsigned long long)s.raw_size, s.arg0,
+                          s.arg1);
+            o << line;
+        }
+    }
+    detail("read " + std::to_string(r->bytes_read()) + " bytes of the file");
+    return 0;
+}
+
+const CommandRegistration registration{Command{
+    "info", "Describe a .tlod container (reads only its metadata)", 21,
+    [](CLI::App& sub) -> std::function<int()> {
+        auto a = std::make_shared<InfoArgs>();
+        sub.add_option("input", a->input, "Input .tlod file")->required();
+        sub.add_flag("--json", a->json, "Machine-readable output (every section listed)");
+        sub.add_flag("--sections", a->sections, "List every section in the text output");
+        sub.footer("Examples:\n  tetlod info neghip.tlod\n  tetlod info neghip.tlod --json");
+        return [a] { return run_info(*a); };
+    }}};
+
+}  // namespace
+
+}  // namespace tetlod::cli
