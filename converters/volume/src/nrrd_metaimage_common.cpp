@@ -107,7 +107,7 @@ void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_
         ~Guard() { inflateEnd(z); }
     } guard{&zs};
     std::vector<unsigned char> in(kZChunk);
-    std::vector<unsigned char> skip(std::min<uint64_t>(kZChunk, std::max<int64_t>(piece.byte_skip, 1)));
+    std::vector<unsigned char> skip(std::min<uint64_t>(kZChunk, std::max<int64_t>(piece.byte_skip, 4096)));
     uint64_t to_skip = piece.byte_skip > 0 ? static_cast<uint64_t>(piece.byte_skip) : 0;
     uint64_t done = 0;
     bool stream_end = false;
@@ -147,6 +147,24 @@ void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_
         uint64_t produced = before - zs.avail_out;
         if (to_skip > 0) to_skip -= produced;
         else done += produced;
+    }
+    // All samples are in; run the stream to its end so the trailer's checksum
+    // (CRC-32 for gzip, Adler-32 for zlib) is verified and a cut-off file is
+    // caught. Any data past the declared samples are decoded and ignored.
+    while (!stream_end) {
+        if (zs.avail_in == 0) {
+            std::size_t n = std::fread(in.data(), 1, in.size(), f);
+            if (n == 0)
+                throw Error(ErrorCode::Truncated, what + ": data file '" + piece.path +
+                                                      "' is truncated: the compressed stream has no end");
+            zs.next_in = in.data();
+            zs.avail_in = static_cast<uInt>(n);
+        }
+        zs.next_out = skip.data();
+        zs.avail_out = static_cast<uInt>(skip.size());
+        int rc = inflate(&zs, Z_NO_FLUSH);
+        if (rc == Z_STREAM_END) stream_end = true;
+        else if (rc != Z_OK && rc != Z_BUF_ERROR) throw corrupt(zs.msg);
     }
 }
 
