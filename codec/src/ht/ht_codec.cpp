@@ -546,7 +546,12 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
         tbb::parallel_for(std::size_t(0), ids.size(), [&](std::size_t j) {
             const HtChunk& c = L.chunks[ids[j]];
             const auto& fsec = r.sections()[c.field_section];
-            auto raw = tlod::zstd_decompress(fst[j], fsec.raw_size);
+            auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si)
+                -> Expected<std::vector<std::byte>> {
+                if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
+                return tlod::zstd_decompress(st, si.raw_size);
+            };
+            auto raw = unpack(fst[j], fsec);
             if (!raw) {
                 fails[j] = fail(raw.failure().code, r.name() + ": section " +
                                                         std::to_string(c.field_section) + ": " +
@@ -558,7 +563,7 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
                 decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
             });
             if (!req.errors) return;
-            auto er = tlod::zstd_decompress(est[j], r.sections()[c.error_section].raw_size);
+            auto er = unpack(est[j], r.sections()[c.error_section]);
             if (!er) {
                 fails[j] = fail(er.failure().code, r.name() + ": section " +
                                                        std::to_string(c.error_section) + ": " +

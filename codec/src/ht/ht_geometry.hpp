@@ -215,9 +215,12 @@ inline void maubach_bisect(const MTet& t, MTet& c1, MTet& c2) {
     // child 1: (x0 .. x(j-1), z, x(j+1) .. x3); child 2: (x1 .. xj, z, x(j+1) .. x3)
     c1.v = t.v;
     c1.v[j] = z;
-    for (int i = 0; i < j; ++i) c2.v[i] = t.v[i + 1];
-    c2.v[j] = z;
-    for (int i = j + 1; i < 4; ++i) c2.v[i] = t.v[i];
+    // spelled out per tag: a loop with a variable bound compiles to a slow memmove
+    switch (j) {
+        case 3: c2.v = Tet{t.v[1], t.v[2], t.v[3], z}; break;
+        case 2: c2.v = Tet{t.v[1], t.v[2], z, t.v[3]}; break;
+        default: c2.v = Tet{t.v[1], z, t.v[2], t.v[3]}; break;
+    }
     c1.tag = c2.tag = tag;
     c1.level = c2.level = level;
 }

@@ -57,6 +57,9 @@ public:
         vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
         eps_in_ = q.full ? -1.0 : q.error_in;
         eps_out_ = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
+        has_region_ = q.has_region() && !q.full;
+        eps_min_ = std::min(eps_in_, eps_out_);
+        eps_max_ = std::max(eps_in_, eps_out_);
         if (q.box) {
             const auto& b = *q.box;
             box_ = ht::IBox{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
@@ -76,14 +79,20 @@ public:
         ht::maubach_roots(dom_.L, roots);
         for (const auto& r : roots) {
             PendingTet p{spine_first(r.v, r.tag), 0};
-            if (!ok(p)) pending_.push_back(p);
+            if (!ok(p)) pending_.push_back(ht::midpoint(p.v[0], p.v[1]));
         }
         while (!pending_.empty()) {
-            PendingTet t = pending_.back();
+            const Pt c = pending_.back();
             pending_.pop_back();
-            force(ht::midpoint(t.v[0], t.v[1]));
+            force(c);
         }
-        emit(roots);
+        // ~6 tets per vertex in HT meshes; reserving avoids regrowth copies.
+        const std::size_t expect = 6 * mesh_.points.size() + 64;
+        mesh_.tets.reserve(expect);
+        mesh_.level.reserve(expect);
+        mesh_.error.reserve(expect);
+        for (const auto& r : roots) emit(r);
+        fill_values();
         if (stats) {
             stats->max_error = max_error_;
             stats->split_diamonds = split_count_;
@@ -116,7 +125,17 @@ private:
         const int64_t i = index(p);
         vertex_id_[i] = uint32_t(mesh_.points.size());
         mesh_.points.push_back(p);
-        mesh_.values.push_back(field_.value(i));
+    }
+
+    /// Vertex values, read once all vertices are known (one type dispatch).
+    void fill_values() {
+        mesh_.values.resize(mesh_.points.size());
+        dispatch_value_type(field_.type, [&](auto tag) {
+            using T = decltype(tag);
+            const T* f = field_.as<T>();
+            for (std::size_t v = 0; v < mesh_.points.size(); ++v)
+                mesh_.values[v] = double(f[index(mesh_.points[v])]);
+        });
     }
 
     double vertex_value(const Pt& p) const { return field_.value(index(p)); }
@@ -175,20 +194,50 @@ private:
             if (!ready) continue;
             stack_.pop_back();
             mark_split(c);
-            Tet tets[8];
-            const int nt = ht::diamond_tets(c, d, dom_.L, tets);
-            for (int i = 0; i < nt; ++i) {
-                if (ht::classify_against_data_box(tets[i], dom_.box_max) == BoxRelation::Outside)
-                    continue;
-                const Tet& t = tets[i];
-                // children: replace one spine end by the centre; respine each
-                for (int side = 0; side < 2; ++side) {
-                    PendingTet ch;
-                    ch.level = uint8_t(d.level + 1);
-                    Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
-                    ch.v = respine(v);
-                    if (!ok(ch)) pending_.push_back(ch);
-                }
+            if (!enqueue_children_fast(c, d)) enqueue_children(c, d);
+        }
+    }
+
+    /// Interior diamonds (all tets, hence all children tets, inside B): the
+    /// children tets of the diamond belong to its child diamonds, so under a
+    /// bound that does not depend on the tet, a child diamond must split exactly
+    /// when its error exceeds the bound. Returns false to ask for the per-tet path
+    /// (boundary diamonds, or a child whose verdict depends on the region test).
+    bool enqueue_children_fast(const Pt& c, const DiamondInfo& d) {
+        const auto& m = dom_.box_max;
+        if (c[0] - d.h < 0 || c[1] - d.h < 0 || c[2] - d.h < 0 || c[0] + d.h > m[0] ||
+            c[1] + d.h > m[1] || c[2] + d.h > m[2])
+            return false;
+        if (d.level + 1 >= dom_.max_level()) return true;  // children are unit tets
+        Pt ch[8];
+        const int n = ht::diamond_children(c, d, dom_.L, ch);
+        int pushed = 0;
+        Pt todo[8];
+        for (int i = 0; i < n; ++i) {
+            const float e = err_[index(ch[i])];
+            if (e <= eps_min_) continue;
+            if (has_region_ && e <= eps_max_) return false;
+            todo[pushed++] = ch[i];
+        }
+        for (int i = 0; i < pushed; ++i)
+            if (!is_split(todo[i])) pending_.push_back(todo[i]);
+        return true;
+    }
+
+    void enqueue_children(const Pt& c, const DiamondInfo& d) {
+        Tet tets[8];
+        const int nt = ht::diamond_tets(c, d, dom_.L, tets);
+        for (int i = 0; i < nt; ++i) {
+            if (ht::classify_against_data_box(tets[i], dom_.box_max) == BoxRelation::Outside)
+                continue;
+            const Tet& t = tets[i];
+            // children: replace one spine end by the centre; respine each
+            for (int side = 0; side < 2; ++side) {
+                PendingTet ch;
+                ch.level = uint8_t(d.level + 1);
+                Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
+                ch.v = respine(v);
+                if (!ok(ch)) pending_.push_back(ht::midpoint(ch.v[0], ch.v[1]));
             }
         }
     }
@@ -217,33 +266,24 @@ private:
         }
     }
 
-    void emit(const ht::MTet roots[6]) {
-        std::vector<ht::MTet> stack(roots, roots + 6);
-        std::reverse(stack.begin(), stack.end());
-        const int max_level = dom_.max_level();
-        while (!stack.empty()) {
-            const ht::MTet t = stack.back();
-            stack.pop_back();
-            ++visited_;
-            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
-            if (rel == BoxRelation::Outside) continue;
-            bool refine = rel == BoxRelation::Crossing;
-            float err = 0;
-            if (!refine && t.level < max_level) {
-                const Pt c = ht::maubach_centre(t);
-                const int64_t i = index(c);
-                refine = (split_[i >> 6] >> (i & 63)) & 1;
-                err = err_[i];
-            }
-            if (refine) {
-                ht::MTet c1, c2;
-                ht::maubach_bisect(t, c1, c2);
-                stack.push_back(c2);
-                stack.push_back(c1);
-                continue;
-            }
-            output(t, err);
+    void emit(const ht::MTet& t) {
+        ++visited_;
+        const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+        if (rel == BoxRelation::Outside) return;
+        bool refine = rel == BoxRelation::Crossing;
+        int64_t centre = -1;
+        if (!refine && t.level < dom_.max_level()) {
+            centre = index(ht::maubach_centre(t));
+            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
         }
+        if (!refine) {
+            output(t, centre < 0 ? 0.0f : err_[centre]);  // unit tets have no error
+            return;
+        }
+        ht::MTet c1, c2;
+        ht::maubach_bisect(t, c1, c2);
+        emit(c1);
+        emit(c2);
     }
 
     void output(const ht::MTet& t, float err) {
@@ -261,13 +301,14 @@ private:
     const std::vector<float>& err_;
     const LodQuery& q_;
     const int64_t X_, XY_, n_;
-    double eps_in_ = 0, eps_out_ = 0;
+    double eps_in_ = 0, eps_out_ = 0, eps_min_ = 0, eps_max_ = 0;
+    bool has_region_ = false;
     std::optional<ht::IBox> box_;
 
     std::vector<uint64_t> split_;
     std::unordered_set<uint64_t> outside_split_;
     std::unique_ptr<uint32_t[]> vertex_id_;  // valid only at vertices (split centres, corners)
-    std::vector<PendingTet> pending_;
+    std::vector<Pt> pending_;  // diamonds to force
     std::vector<Pt> stack_;
     TetMesh mesh_;
     double max_error_ = 0;
