@@ -1,0 +1,18 @@
+// libFuzzer target: the .tlod reader on arbitrary bytes (header, table,
+// metadata, HT layout, full decode). Must never crash, hang or read out of bounds.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/format/container.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    std::span<const std::byte> bytes(reinterpret_cast<const std::byte*>(data), size);
+    auto r = tetlod::tlod::ContainerReader::from_memory(bytes);
+    if (!r) return 0;
+    for (std::size_t i = 0; i < r->sections().size(); ++i) (void)r->read_section(i);
+    auto r2 = tetlod::tlod::ContainerReader::from_memory(bytes);
+    (void)tetlod::decode_ht(*r2);
+    return 0;
+}
