@@ -1,0 +1,217 @@
+#pragma once
+// Exact grid geometry shared by the MT builder and extractor: orientation,
+// barycentric numerators, the 5-tet reference mesh, the tet/box test, the shape
+// ratio and the canonical order of a star (notes §1.2, §3, §4.5).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "tetlod/core/volume.hpp"
+
+namespace tetlod::mt {
+
+using Pt = std::array<int32_t, 3>;
+inline constexpr uint32_t kNil = 0xFFFFFFFFu;
+
+struct Grid {
+    int64_t X = 0, Y = 0, Z = 0;
+    explicit Grid(const Dims& d) : X(d.x), Y(d.y), Z(d.z) {}
+    Pt coord(uint32_t i) const {
+        const int64_t x = i % X, r = i / X;
+        return {int32_t(x), int32_t(r % Y), int32_t(r / Y)};
+    }
+    uint32_t index(int64_t x, int64_t y, int64_t z) const { return uint32_t((z * Y + y) * X + x); }
+    /// Bit set of the box planes the point lies on (x=0, x=max, y=0, ...).
+    uint8_t planes(const Pt& p) const {
+        return uint8_t((p[0] == 0) | (p[0] == X - 1) << 1 | (p[1] == 0) << 2 | (p[1] == Y - 1) << 3 |
+                       (p[2] == 0) << 4 | (p[2] == Z - 1) << 5);
+    }
+};
+
+/// det[b-a, c-a, d-a] = 6 x signed volume (exact for coordinates below 2^20).
+inline int64_t orient(const Pt& a, const Pt& b, const Pt& c, const Pt& d) {
+    const int64_t bx = b[0] - a[0], by = b[1] - a[1], bz = b[2] - a[2];
+    const int64_t cx = c[0] - a[0], cy = c[1] - a[1], cz = c[2] - a[2];
+    const int64_t dx = d[0] - a[0], dy = d[1] - a[1], dz = d[2] - a[2];
+    return bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
+}
+
+/// Barycentric numerators of a positively oriented tet as affine functions:
+/// D_i(p) = g_i . p + h_i, with sum D_i = det. Point p is in the closed tet iff all >= 0.
+struct Bary {
+    std::array<std::array<int64_t, 3>, 4> g;
+    std::array<int64_t, 4> h;
+    int64_t det = 0;
+
+    void set(const std::array<Pt, 4>& v) {
+        // orient(p,a,b,c) = (a-p).N, N = (b-a)x(c-a): g = -N, h = a.N.
+        auto face = [&](int i, const Pt& a, const Pt& b, const Pt& c, int64_t sign) {
+            const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+            const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
+            const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
+            g[i] = {-sign * nx, -sign * ny, -sign * nz};
+            h[i] = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
+        };
+        face(0, v[1], v[2], v[3], 1);
+        face(1, v[0], v[2], v[3], -1);
+        face(2, v[0], v[1], v[3], 1);
+        face(3, v[0], v[1], v[2], -1);
+        det = orient(v[0], v[1], v[2], v[3]);
+    }
+    int64_t eval(int i, const Pt& p) const {
+        return g[i][0] * p[0] + g[i][1] * p[1] + g[i][2] * p[2] + h[i];
+    }
+    /// Fills d and returns true when p lies in the closed tet.
+    bool locate(const Pt& p, std::array<int64_t, 4>& d) const {
+        for (int i = 0; i < 4; ++i) {
+            d[i] = eval(i, p);
+            if (d[i] < 0) return false;
+        }
+        return true;
+    }
+};
+
+/// The 5 tets of every grid cell (notes §3): the 4 corners of even x+y+z form the
+/// central tet, each odd corner a tet with its 3 neighbours. Face diagonals match
+/// across cells. Positively oriented.
+inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
+    std::vector<std::array<uint32_t, 4>> out;
+    out.reserve(size_t(5 * (g.X - 1) * (g.Y - 1) * (g.Z - 1)));
+    for (int64_t k = 0; k + 1 < g.Z; ++k)
+        for (int64_t j = 0; j + 1 < g.Y; ++j)
+            for (int64_t i = 0; i + 1 < g.X; ++i) {
+                std::array<uint32_t, 4> even{};
+                int ne = 0;
+                auto corner = [&](int c) { return g.index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2)); };
+                for (int c = 0; c < 8; ++c)
+                    if (((i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) even[ne++] = corner(c);
+                auto emit = [&](std::array<uint32_t, 4> t) {
+                    if (orient(g.coord(t[0]), g.coord(t[1]), g.coord(t[2]), g.coord(t[3])) < 0)
+                        std::swap(t[2], t[3]);
+                    out.push_back(t);
+                };
+                emit(even);
+                for (int c = 0; c < 8; ++c) {
+                    if (((i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) continue;
+                    emit({corner(c), corner(c ^ 1), corner(c ^ 2), corner(c ^ 4)});
+                }
+            }
+    return out;
+}
+
+/// Exact closed tet / closed box intersection (separating axis theorem).
+inline bool tet_meets_box(const std::array<Pt, 4>& t, const std::array<int64_t, 3>& lo,
+                          const std::array<int64_t, 3>& hi) {
+    for (int a = 0; a < 3; ++a) {
+        int64_t mn = t[0][a], mx = t[0][a];
+        for (int i = 1; i < 4; ++i) mn = std::min<int64_t>(mn, t[i][a]), mx = std::max<int64_t>(mx, t[i][a]);
+        if (mx < lo[a] || mn > hi[a]) return false;
+    }
+    auto separated = [&](const std::array<int64_t, 3>& n) {
+        if (n[0] == 0 && n[1] == 0 && n[2] == 0) return false;
+        __int128 tmn = 0, tmx = 0;
+        for (int i = 0; i < 4; ++i) {
+            const __int128 v = __int128(n[0]) * t[i][0] + __int128(n[1]) * t[i][1] + __int128(n[2]) * t[i][2];
+            if (i == 0 || v < tmn) tmn = v;
+            if (i == 0 || v > tmx) tmx = v;
+        }
+        __int128 bmn = 0, bmx = 0;
+        for (int a = 0; a < 3; ++a) {
+            const __int128 x = __int128(n[a]) * lo[a], y = __int128(n[a]) * hi[a];
+            bmn += std::min(x, y), bmx += std::max(x, y);
+        }
+        return tmx < bmn || tmn > bmx;
+    };
+    static constexpr int E[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    std::array<std::array<int64_t, 3>, 6> e;
+    for (int i = 0; i < 6; ++i)
+        for (int a = 0; a < 3; ++a) e[i][a] = int64_t(t[E[i][1]][a]) - t[E[i][0]][a];
+    auto cross = [](const std::array<int64_t, 3>& u, const std::array<int64_t, 3>& v) {
+        return std::array<int64_t, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                                      u[0] * v[1] - u[1] * v[0]};
+    };
+    // Face normals of the tet.
+    static constexpr int F[4][2] = {{0, 1}, {0, 2}, {3, 4}, {1, 2}};  // edge pairs spanning faces
+    // faces: (0,1,2): e01 x e02; (0,1,3): e01 x e03; (1,2,3): e12 x e13; (0,2,3): e02 x e03
+    const std::array<std::array<int64_t, 3>, 4> fn = {cross(e[0], e[1]), cross(e[0], e[2]),
+                                                      cross(e[3], e[4]), cross(e[1], e[2])};
+    (void)F;
+    for (const auto& n : fn)
+        if (separated(n)) return false;
+    for (int a = 0; a < 3; ++a) {
+        std::array<int64_t, 3> ax{0, 0, 0};
+        ax[a] = 1;
+        for (int i = 0; i < 6; ++i)
+            if (separated(cross(ax, e[i]))) return false;
+    }
+    return true;
+}
+
+/// Circumradius / shortest edge in physical coordinates (regular tet: sqrt(6)/4).
+inline double shape_ratio(const std::array<Pt, 4>& t, const Vec3& sp) {
+    std::array<std::array<double, 3>, 4> p;
+    for (int i = 0; i < 4; ++i)
+        for (int a = 0; a < 3; ++a) p[i][a] = t[i][a] * sp[a];
+    auto sub = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return std::array<double, 3>{u[0] - v[0], u[1] - v[1], u[2] - v[2]};
+    };
+    auto dot = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    };
+    auto cross = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return std::array<double, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                                     u[0] * v[1] - u[1] * v[0]};
+    };
+    const auto a = sub(p[1], p[0]), b = sub(p[2], p[0]), c = sub(p[3], p[0]);
+    const auto bc = cross(b, c), ca = cross(c, a), ab = cross(a, b);
+    const double den = 2.0 * dot(a, bc);
+    const double la = dot(a, a), lb = dot(b, b), lc = dot(c, c);
+    std::array<double, 3> o;
+    for (int k = 0; k < 3; ++k) o[k] = (la * bc[k] + lb * ca[k] + lc * ab[k]) / den;
+    const double R = std::sqrt(dot(o, o));
+    double shortest = std::min({la, lb, lc});
+    shortest = std::min({shortest, dot(sub(p[2], p[1]), sub(p[2], p[1])),
+                         dot(sub(p[3], p[1]), sub(p[3], p[1])), dot(sub(p[3], p[2]), sub(p[3], p[2]))});
+    return R / std::sqrt(shortest);
+}
+
+/// Canonical order of the star of node s for its split towards w (notes §4.5):
+/// first by -(sum of the tet's corners - 4 s).(w - s) (tets leaning towards w come
+/// first, so masks are mostly a prefix of ones), then by the sorted grid indices of
+/// the face opposite s. Returns the permutation (positions into `star`).
+template <class TetOf>
+void star_order(const std::vector<uint32_t>& star, uint32_t s, const Pt& ps, const Pt& pw,
+                const Grid& g, TetOf tet_of, std::vector<uint32_t>& perm,
+                std::vector<std::pair<int64_t, std::array<uint32_t, 3>>>& keys) {
+    const int64_t dx = pw[0] - ps[0], dy = pw[1] - ps[1], dz = pw[2] - ps[2];
+    keys.resize(star.size());
+    for (size_t i = 0; i < star.size(); ++i) {
+        const std::array<uint32_t, 4>& v = tet_of(star[i]);
+        int64_t sx = 0, sy = 0, sz = 0;
+        std::array<uint32_t, 3> f{};
+        int nf = 0;
+        for (int j = 0; j < 4; ++j) {
+            const Pt p = g.coord(v[j]);
+            sx += p[0] - ps[0], sy += p[1] - ps[1], sz += p[2] - ps[2];
+            if (v[j] != s && nf < 3) f[nf++] = v[j];
+        }
+        std::sort(f.begin(), f.end());
+        keys[i] = {-(sx * dx + sy * dy + sz * dz), f};
+    }
+    perm.resize(star.size());
+    for (size_t i = 0; i < star.size(); ++i) perm[i] = uint32_t(i);
+    std::sort(perm.begin(), perm.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+}
+
+/// Rounds a nonnegative double up to a float that is >= it (inexact: one more ulp).
+inline float round_up_float(double v, bool exact) {
+    if (!(v > 0)) return 0.0f;
+    float f = static_cast<float>(v);
+    if (double(f) < v) f = std::nextafter(f, INFINITY);
+    if (!exact) f = std::nextafter(f, INFINITY);
+    return f;
+}
+
+}  // namespace tetlod::mt
