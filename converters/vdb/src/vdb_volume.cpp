@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fcntl.h>
+#include <optional>
 #include <set>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -82,10 +83,11 @@ void fill_dense(const GridT& grid, const Extent& ext, Volume& vol, const std::st
         if constexpr (std::is_same_v<V, bool>) {
             vol.as<uint8_t>()[idx] = v ? 1 : 0;
         } else if constexpr (std::is_same_v<V, int64_t>) {
-            if (v < INT32_MIN || v > INT32_MAX)
+            // Staged as double, narrowed to a 32-bit type afterwards (read_vdb).
+            if (v < -(int64_t{1} << 53) || v > (int64_t{1} << 53))
                 throw Error(ErrorCode::UnsupportedFeature,
                             what + ": Int64 grid value " + std::to_string(v) + " does not fit a 32-bit integer");
-            vol.as<int32_t>()[idx] = static_cast<int32_t>(v);
+            vol.as<double>()[idx] = static_cast<double>(v);
         } else {
             vol.as<V>()[idx] = v;
         }
@@ -251,8 +253,16 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
             vol = Volume::allocate(ext.dims, ValueType::I32);
             fill_dense(*openvdb::gridConstPtrCast<openvdb::Int32Grid>(grid), ext, vol, what);
         } else if (grid->isType<openvdb::Int64Grid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::I32);
+            vol = Volume::allocate(ext.dims, ValueType::F64);
             fill_dense(*openvdb::gridConstPtrCast<openvdb::Int64Grid>(grid), ext, vol, what);
+            // tetlod volumes hold at most 32-bit integers: the declared type, else
+            // i32, else u32 (u32 volumes are written as Int64 grids).
+            std::optional<ValueType> declared;
+            if (auto t = (*grid)["tetlod_value_type"]) declared = parse_value_type(t->str());
+            if (!(declared && !is_float(*declared) && try_narrow(vol, *declared)) && !try_narrow(vol, ValueType::I32) &&
+                !try_narrow(vol, ValueType::U32))
+                throw Error(ErrorCode::UnsupportedFeature,
+                            what + ": Int64 grid '" + name + "' holds values that do not fit a 32-bit integer");
         } else if (grid->isType<openvdb::BoolGrid>()) {
             vol = Volume::allocate(ext.dims, ValueType::U8);
             fill_dense(*openvdb::gridConstPtrCast<openvdb::BoolGrid>(grid), ext, vol, what);

@@ -6,8 +6,9 @@
 // Read: one grid, chosen by VolumeReadOptions::grid or, when empty, the only
 // scalar grid in the file (several: ErrorCode::InvalidArgument listing them;
 // none or a wrong name: ErrorCode::NotFound listing the scalar grids).
-//  - grid types Float, Double, Int32, Int64 (values must fit int32, as tetlod
-//    volumes hold at most 32-bit integers) and Bool (read as u8 0/1).
+//  - grid types Float, Double, Int32, Int64 (values must fit i32 or u32, as
+//    tetlod volumes hold at most 32-bit integers; staged through a double copy)
+//    and Bool (read as u8 0/1).
 //  - extent: grid metadata "dims_xyz" (voxels 0..dims-1) when present and it
 //    contains every active voxel; otherwise the active-voxel bounding box.
 //    Inactive voxels take the grid's background value.
