@@ -216,7 +216,9 @@ std::string format_error(double error, const std::array<double, 2>& range) {
     if (error < 0) return "full resolution";
     const double width = range[1] - range[0];
     if (std::isinf(error) || !(width > 0)) return format_number(error);
-    return format_number(error) + " (" + format_number(error * 100.0 / width) + "% of range)";
+    char pct[32];
+    std::snprintf(pct, sizeof pct, "%.3g", error * 100.0 / width);  // 3 digits: 0.98%, 10%
+    return format_number(error) + " (" + pct + "% of range)";
 }
 
 }  // namespace tetlod::cli

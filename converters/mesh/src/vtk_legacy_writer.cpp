@@ -81,15 +81,19 @@ void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
     for (double v : mesh.values) buf.put(v);
     buf.flush_to(out);
 
-    if (!mesh.level.empty() || !mesh.error.empty()) {
-        out.write("CELL_DATA " + std::to_string(nt) + "\n");
+    // Cell arrays go in one FIELD block: VTK's legacy reader loads only the first
+    // SCALARS of a section unless told ReadAllScalarsOn(), but every FIELD array.
+    const int arrays = int{!mesh.level.empty()} + int{!mesh.error.empty()};
+    if (arrays > 0) {
+        out.write("CELL_DATA " + std::to_string(nt) + "\nFIELD FieldData " +
+                  std::to_string(arrays) + "\n");
         if (!mesh.level.empty()) {
-            out.write(std::string_view("SCALARS level unsigned_char 1\nLOOKUP_TABLE default\n"));
+            out.write("level 1 " + std::to_string(nt) + " unsigned_char\n");
             for (uint8_t v : mesh.level) buf.put(v);
             buf.flush_to(out);
         }
         if (!mesh.error.empty()) {
-            out.write(std::string_view("SCALARS error float 1\nLOOKUP_TABLE default\n"));
+            out.write("error 1 " + std::to_string(nt) + " float\n");
             for (float v : mesh.error) buf.put(v);
             buf.flush_to(out);
         }
