@@ -19,18 +19,18 @@ std::string slurp(const std::string& path) {
     return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
-struct Run {
+struct CliRun {
     int code = -1;
     std::string out, err;
 };
 
 // Runs the CLI through the shell with stdout and stderr captured apart.
-Run run(const std::string& args) {
+CliRun run(const std::string& args) {
     const std::string out = tmp("stdout.txt"), err = tmp("stderr.txt");
     const std::string cmd =
         std::string("'") + TETLOD_CLI_PATH + "' " + args + " >'" + out + "' 2>'" + err + "'";
     const int status = std::system(cmd.c_str());
-    Run r;
+    CliRun r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     r.out = slurp(out);
     r.err = slurp(err);
@@ -42,34 +42,34 @@ bool contains(const std::string& s, const std::string& part) { return s.find(par
 }  // namespace
 
 TEST(Cli, HelpGoesToStdout) {
-    const Run r = run("--help");
+    const CliRun r = run("--help");
     EXPECT_EQ(r.code, 0);
     for (const char* c : {"sample", "extract", "demo"}) EXPECT_TRUE(contains(r.out, c)) << r.out;
     EXPECT_EQ(r.err, "");
     // The commands are listed in registry order.
     EXPECT_LT(r.out.find("sample"), r.out.find("extract"));
 
-    const Run sub = run("extract --help");
+    const CliRun sub = run("extract --help");
     EXPECT_EQ(sub.code, 0);
     EXPECT_TRUE(contains(sub.out, "--error-out")) << sub.out;
     EXPECT_TRUE(contains(sub.out, "Examples")) << sub.out;
 }
 
 TEST(Cli, Version) {
-    const Run r = run("--version");
+    const CliRun r = run("--version");
     EXPECT_EQ(r.code, 0);
     EXPECT_TRUE(contains(r.out, "tetlod ")) << r.out;
 }
 
 TEST(Cli, SampleWritesVolumeAndHowToReadIt) {
     const std::string path = tmp("ml.raw");
-    const Run r = run("sample marschner-lobb '" + path + "' --size 9 --dtype u16");
+    const CliRun r = run("sample marschner-lobb '" + path + "' --size 9 --dtype u16");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(fs::file_size(path), 9u * 9 * 9 * 2);
     EXPECT_TRUE(contains(r.out, "--dims 9,9,9 --dtype u16")) << r.out;
     EXPECT_EQ(r.err, "");
 
-    const Run q = run("-q sample sphere '" + tmp("s.raw") + "' --dims 4,5,6");
+    const CliRun q = run("-q sample sphere '" + tmp("s.raw") + "' --dims 4,5,6");
     EXPECT_EQ(q.code, 0) << q.err;
     EXPECT_EQ(q.out, "");  // -q: results suppressed
     EXPECT_EQ(fs::file_size(tmp("s.raw")), 120u);
@@ -82,7 +82,7 @@ TEST(Cli, BadUsageExitsTwoWithMessageOnStderr) {
           "extract a.raw b.vtu --error abc", "extract a.raw b.vtu --box 1,2,3 --error 1",
           "extract a.raw b.vtu --dtype u7 --error 1"}) {
         SCOPED_TRACE(args);
-        const Run r = run(args);
+        const CliRun r = run(args);
         EXPECT_EQ(r.code, 2);
         EXPECT_TRUE(contains(r.err, "tetlod: error:")) << r.err;
         EXPECT_EQ(r.out, "");
@@ -93,7 +93,7 @@ TEST(Cli, BadUsageExitsTwoWithMessageOnStderr) {
 
 TEST(Cli, MissingFileIsAClearError) {
     const std::string path = tmp("absent_8x8x8_uint8.raw");
-    const Run r = run("extract '" + path + "' '" + tmp("o.vtu") + "' --error 1");
+    const CliRun r = run("extract '" + path + "' '" + tmp("o.vtu") + "' --error 1");
     EXPECT_EQ(r.code, 3);
     EXPECT_TRUE(contains(r.err, "tetlod: error: cannot open '" + path + "'")) << r.err;
     EXPECT_FALSE(fs::exists(tmp("o.vtu")));
@@ -106,7 +106,7 @@ TEST(Cli, SizeMismatchIsAClearErrorAndWritesNothing) {
         f << std::string(500, 'x');
     }
     const std::string out = tmp("never.vtu");
-    const Run r = run("extract '" + path + "' '" + out + "' --error 1");
+    const CliRun r = run("extract '" + path + "' '" + out + "' --error 1");
     EXPECT_EQ(r.code, 4);
     EXPECT_TRUE(contains(r.err, "short_8x8x8_uint8.raw")) << r.err;
     EXPECT_TRUE(contains(r.err, "512")) << r.err;
@@ -118,10 +118,10 @@ TEST(Cli, SizeMismatchIsAClearErrorAndWritesNothing) {
 
 TEST(Cli, ExtractNeedsErrorOrFull) {
     ASSERT_EQ(run("-q sample sphere '" + tmp("sp_9x9x9_uint8.raw") + "' --size 9").code, 0);
-    const Run r = run("extract '" + tmp("sp_9x9x9_uint8.raw") + "' '" + tmp("x.vtu") + "'");
+    const CliRun r = run("extract '" + tmp("sp_9x9x9_uint8.raw") + "' '" + tmp("x.vtu") + "'");
     EXPECT_EQ(r.code, 2);
     EXPECT_TRUE(contains(r.err, "--full")) << r.err;
-    const Run mt = run("extract '" + tmp("sp_9x9x9_uint8.raw") + "' '" + tmp("x.vtu") +
+    const CliRun mt = run("extract '" + tmp("sp_9x9x9_uint8.raw") + "' '" + tmp("x.vtu") +
                        "' --error 1 --model mt");
     EXPECT_NE(mt.code, 0);
     EXPECT_TRUE(contains(mt.err, "not yet available")) << mt.err;
@@ -134,18 +134,18 @@ TEST(Cli, ExtractUniformFullAndRegion) {
     const std::string in = tmp("ml_17x17x17_uint8.raw");
     ASSERT_EQ(run("-q sample marschner-lobb '" + in + "' --size 17").code, 0);
 
-    const Run full = run("extract '" + in + "' '" + tmp("full.vtu") + "' --full");
+    const CliRun full = run("extract '" + in + "' '" + tmp("full.vtu") + "' --full");
     ASSERT_EQ(full.code, 0) << full.err;
     EXPECT_TRUE(contains(full.out, "24576 tets")) << full.out;  // 6 * 16^3
     EXPECT_TRUE(fs::exists(tmp("full.vtu")));
 
-    const Run coarse = run("extract '" + in + "' '" + tmp("coarse.vtk") + "' --error 10%");
+    const CliRun coarse = run("extract '" + in + "' '" + tmp("coarse.vtk") + "' --error 10%");
     ASSERT_EQ(coarse.code, 0) << coarse.err;
     EXPECT_TRUE(contains(coarse.out, "25.5 (10% of range)")) << coarse.out;
     EXPECT_EQ(slurp(tmp("coarse.vtk")).rfind("# vtk DataFile", 0), 0u);
     EXPECT_LT(fs::file_size(tmp("coarse.vtk")), fs::file_size(tmp("full.vtu")) * 4);
 
-    const Run region = run("extract '" + in + "' '" + tmp("region.vtu") +
+    const CliRun region = run("extract '" + in + "' '" + tmp("region.vtu") +
                            "' --error 0 --box 4,4,4,12,12,12 --isovalue 128 --error-out inf --no-compress");
     ASSERT_EQ(region.code, 0) << region.err;
     EXPECT_FALSE(contains(slurp(tmp("region.vtu")), "vtkZLibDataCompressor"));
@@ -153,7 +153,7 @@ TEST(Cli, ExtractUniformFullAndRegion) {
 
 TEST(Cli, Demo) {
     const std::string dir = tmp("demo");
-    const Run r = run("demo --out '" + dir + "' --size 9");
+    const CliRun r = run("demo --out '" + dir + "' --size 9");
     ASSERT_EQ(r.code, 0) << r.err;
     for (const char* f : {"marschner-lobb_9x9x9_uint8.raw", "multiscale_9x9x9_uint8.raw",
                           "marschner-lobb_full.vtu", "multiscale_error5pct.vtu", "multiscale_iso.vtu",
