@@ -12,6 +12,7 @@
 #include "cli_common.hpp"
 #include "command.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/format/container.hpp"
 
 namespace tetlod::cli {
 
@@ -26,7 +27,8 @@ std::vector<Command>& command_registry() {
 int main(int argc, char** argv) {
     using namespace tetlod;
     CLI::App app{"tetlod: multiresolution tetrahedral meshes of 3D scalar volumes", "tetlod"};
-    app.set_version_flag("--version", std::string("tetlod ") + TETLOD_VERSION_STRING);
+    app.set_version_flag("--version", std::string("tetlod ") + TETLOD_VERSION_STRING + " (" +
+                                          tlod::format_version_string() + ")");
     app.require_subcommand(1);
     app.fallthrough();  // -q/-v also work after the subcommand name
     bool quiet = false;
