@@ -11,6 +11,9 @@
 // re-evaluated lazily when its star changed (notes §2.3): deterministic.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <queue>
 
 #include "mt_geometry.hpp"
@@ -31,6 +34,7 @@ struct Entry {
     double quality;
     uint32_t w, s, seq, stamp;
     bool dirty;
+    bool partial;  // cost is a lower bound: re-evaluate when popped
     // std::priority_queue pops the largest: invert for a min-heap on (cost, quality, w, seq).
     bool operator<(const Entry& o) const {
         if (cost != o.cost) return cost > o.cost;
@@ -42,6 +46,7 @@ struct Entry {
 
 struct Candidate {
     bool ok = false;
+    bool partial = false;  // every target costs more than the cutoff; cost is a lower bound
     double cost = 0, quality = 0;
     uint32_t s = kNil;
 };
@@ -53,6 +58,7 @@ struct MtBuilder {
     mt::Grid grid;
     uint32_t n;
     bool int_data;
+    bool small_int;  // |values| < 2^20: numerators fit in int64
     std::vector<Pt> coord;
     std::vector<double> val;
     std::vector<int64_t> ival;
@@ -83,6 +89,7 @@ struct MtBuilder {
     std::vector<std::array<uint32_t, 4>> ntv;
     std::vector<Bary> nb;
     std::vector<int> old2new;
+    std::vector<std::pair<double, uint32_t>> ranked;
 
     MtBuilder(const Volume& v, const MtBuildOptions& o, MtModel& m)
         : vol(v), opt(o), grid(v.dims), n(uint32_t(v.count())), model(m) {}
@@ -136,6 +143,8 @@ struct MtBuilder {
     // ---- setup ---------------------------------------------------------------
     void init() {
         int_data = !is_float(vol.type);
+        small_int = vol.type == ValueType::U8 || vol.type == ValueType::I8 || vol.type == ValueType::U16 ||
+                    vol.type == ValueType::I16;
         coord.resize(n);
         planes.resize(n);
         val.resize(n);
@@ -167,7 +176,7 @@ struct MtBuilder {
 
     void push_dirty(uint32_t w, double cost) {
         live_seq[w] = ++seq_counter;
-        heap.push(Entry{cost, -INFINITY, w, kNil, live_seq[w], stamp[w], true});
+        heap.push(Entry{cost, -INFINITY, w, kNil, live_seq[w], stamp[w], true, false});
     }
 
     // ---- link condition (notes §1.1) ----------------------------------------
@@ -176,10 +185,15 @@ struct MtBuilder {
         std::vector<std::array<uint32_t, 2>> v1;
         std::vector<std::array<uint32_t, 3>> v2;
         std::vector<std::array<uint32_t, 2>> bfaces;  // boundary faces (v,a,b), a<b
+        std::vector<std::array<uint32_t, 2>> faces;   // scratch
     };
+    std::vector<uint32_t> e0_, i0_;
+    std::vector<std::array<uint32_t, 2>> e1_, i1_;
+    std::vector<std::array<uint32_t, 3>> i2_;
     void build_link(uint32_t v, Link& L) const {
         L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
-        std::vector<std::array<uint32_t, 2>> faces;
+        auto& faces = L.faces;
+        faces.clear();
         for_star(v, [&](uint32_t t, uint32_t slot) {
             std::array<uint32_t, 3> o{};
             int k = 0;
@@ -210,12 +224,15 @@ struct MtBuilder {
         uniq(L.v0), uniq(L.v1), uniq(L.v2);
     }
     Link lw_, ls_;
+    uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
     bool link_ok(uint32_t w, uint32_t s) {
+        ++n_link;
         build_link(w, lw_);
         build_link(s, ls_);
         // Link of edge ws.
-        std::vector<uint32_t> e0;
-        std::vector<std::array<uint32_t, 2>> e1;
+        auto& e0 = e0_;
+        auto& e1 = e1_;
+        e0.clear(), e1.clear();
         for_star(w, [&](uint32_t t, uint32_t) {
             if (slot_of(tv[t], s) < 0) return;
             std::array<uint32_t, 2> ab{};
@@ -239,35 +256,44 @@ struct MtBuilder {
         e0.erase(std::unique(e0.begin(), e0.end()), e0.end());
         std::sort(e1.begin(), e1.end());
         e1.erase(std::unique(e1.begin(), e1.end()), e1.end());
-        std::vector<uint32_t> i0;
+        auto& i0 = i0_;
+        i0.clear();
         std::set_intersection(lw_.v0.begin(), lw_.v0.end(), ls_.v0.begin(), ls_.v0.end(),
                               std::back_inserter(i0));
-        if (i0 != e0) return false;
-        std::vector<std::array<uint32_t, 2>> i1;
+        if (i0 != e0) return ++n_link_fail, false;
+        auto& i1 = i1_;
+        i1.clear();
         std::set_intersection(lw_.v1.begin(), lw_.v1.end(), ls_.v1.begin(), ls_.v1.end(),
                               std::back_inserter(i1));
-        if (i1 != e1) return false;
-        std::vector<std::array<uint32_t, 3>> i2;
+        if (i1 != e1) return ++n_link_fail, false;
+        auto& i2 = i2_;
+        i2.clear();
         std::set_intersection(lw_.v2.begin(), lw_.v2.end(), ls_.v2.begin(), ls_.v2.end(),
                               std::back_inserter(i2));
+        if (!i2.empty()) ++n_link_fail;
         return i2.empty();
     }
 
     // ---- candidate evaluation (notes §2.2-2.3) --------------------------------
     // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
-    bool make_new_tets(uint32_t w, uint32_t s) {
+    bool make_new_tets(uint32_t w, uint32_t s, bool bary = true) {
         ntv.clear(), nb.clear();
         old2new.assign(star_w.size(), -1);
         for (size_t i = 0; i < star_w.size(); ++i) {
             auto t = tv[star_w[i]];
             if (slot_of(t, s) >= 0) continue;
             t[slot_of(t, w)] = s;
-            Bary b;
-            b.set(pts_of(t));
-            if (b.det <= 0) return false;
+            const auto p = pts_of(t);
+            if (!bary) {
+                if (mt::orient(p[0], p[1], p[2], p[3]) <= 0) return false;
+            } else {
+                Bary b;
+                b.set(p);
+                if (b.det <= 0) return false;
+                nb.push_back(b);
+            }
             old2new[i] = int(ntv.size());
             ntv.push_back(t);
-            nb.push_back(b);
         }
         return true;
     }
@@ -287,9 +313,28 @@ struct MtBuilder {
             for (uint32_t p = thead[star_w[i]]; p != kNil; p = pnext[p]) pts.push_back(p), pfrom.push_back(uint32_t(i));
     }
 
-    Candidate evaluate(uint32_t w) {
+    /// Best target of w by (cost, shape ratio, id); with check_link, the best one that
+    /// also passes the link condition (otherwise the caller checks before committing).
+    /// Fast deviation for ranking candidates (exactness is only tracked at commit).
+    double quick_deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
+                           int64_t det) const {
+        if (small_int) {
+            int64_t num = ival[p] * det;
+            for (int i = 0; i < 4; ++i) num -= ival[t[i]] * d[i];
+            return double(num < 0 ? -num : num) / double(det);
+        }
+        bool exact = true;
+        return deviation(p, t, d, det, exact);
+    }
+
+    /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
+    /// result is `partial` with a lower bound (notes §2.3 c).
+    Candidate evaluate(uint32_t w, bool check_link, uint32_t prefer = kNil,
+                       double cutoff = std::numeric_limits<double>::infinity()) {
+        ++n_eval;
         gather_star(w, star_w);
         gather_points(w);
+        n_pts += pts.size();
         double link_max = 0;
         nbrs.clear();
         for (uint32_t t : star_w) {
@@ -300,38 +345,66 @@ struct MtBuilder {
         }
         std::sort(nbrs.begin(), nbrs.end());
         nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
+        // Trying last time's winner first makes the early exits bite sooner; the
+        // result does not depend on the order (strict total order on the key).
+        if (prefer != kNil) {
+            auto it = std::find(nbrs.begin(), nbrs.end(), prefer);
+            if (it != nbrs.end()) std::rotate(nbrs.begin(), it, it + 1);
+        }
+        // Rank the geometrically legal targets by shape first: a later target then
+        // wins only with a strictly smaller error, so ties stop scanning at once.
+        ranked.clear();
+        for (uint32_t s : nbrs) {
+            if ((planes[w] & ~planes[s]) != 0) continue;
+            if (!make_new_tets(w, s, false)) continue;
+            double q = 0;
+            for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
+            if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
+            ranked.push_back({q, s});
+        }
+        std::sort(ranked.begin(), ranked.end());
         std::vector<uint32_t> excluded;
         for (;;) {
             Candidate best;
-            for (uint32_t s : nbrs) {
-                if ((planes[w] & ~planes[s]) != 0) continue;
+            double lower = std::numeric_limits<double>::infinity();
+            bool cut = false;
+            for (const auto& [q, s] : ranked) {
                 if (std::find(excluded.begin(), excluded.end(), s) != excluded.end()) continue;
+                // With a best, this target must be strictly cheaper; else not above the cutoff.
+                auto over_limit = [&](double c) { return best.ok ? c >= best.cost : c > cutoff; };
                 double cost = link_max;
-                if (best.ok && cost > best.cost) continue;
-                if (!make_new_tets(w, s)) continue;
-                bool ok = true;
+                if (over_limit(cost)) {
+                    if (!best.ok) cut = true, lower = std::min(lower, cost);
+                    continue;
+                }
+                make_new_tets(w, s);
+                bool ok = true, over = false;
                 std::array<int64_t, 4> d;
-                for (size_t i = 0; i < pts.size() && ok; ++i) {
+                for (size_t i = 0; i < pts.size(); ++i) {
                     const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
                     const int j = locate(pts[i], guess, d);
                     if (j < 0) {
                         ok = false;
                         break;
                     }
-                    bool exact = true;
-                    cost = std::max(cost, deviation(pts[i], ntv[j], d, nb[j].det, exact));
-                    if (best.ok && cost > best.cost) ok = false;
+                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[j].det));
+                    if (over_limit(cost)) {
+                        over = true;
+                        break;
+                    }
                 }
                 if (!ok) continue;
-                double q = 0;
-                for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
-                if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
-                if (!best.ok || cost < best.cost || (cost == best.cost && q < best.quality)) {
-                    best.ok = true, best.cost = cost, best.quality = q, best.s = s;
+                if (over) {
+                    if (!best.ok) cut = true, lower = std::min(lower, cost);
+                    continue;
                 }
+                best.ok = true, best.cost = cost, best.quality = q, best.s = s;
             }
-            if (!best.ok) return best;
-            if (link_ok(w, best.s)) return best;
+            if (!best.ok) {
+                if (cut) best.partial = true, best.cost = lower, best.quality = -INFINITY;
+                return best;
+            }
+            if (!check_link || link_ok(w, best.s)) return best;
             excluded.push_back(best.s);
         }
     }
@@ -493,17 +566,26 @@ struct MtBuilder {
             if (e.seq != live_seq[e.w] || !alive[e.w]) continue;
             live_seq[e.w] = 0;
             current_cost = std::max(current_cost, std::min(e.cost, opt.max_error));
-            if (e.dirty || e.stamp != stamp[e.w] || !link_ok(e.w, e.s)) {
-                const Candidate c = evaluate(e.w);
-                if (c.ok) {
+            const bool fresh = !e.dirty && e.stamp == stamp[e.w];
+            if (fresh && e.cost > opt.max_error) break;  // fresh keys are exact or lower bounds
+            if (!fresh || e.partial || !link_ok(e.w, e.s)) {
+                const double cutoff = heap.empty() ? INFINITY : heap.top().cost;
+                const Candidate c = evaluate(e.w, fresh && !e.partial, e.s, cutoff);
+                if (c.ok || c.partial) {
                     live_seq[e.w] = ++seq_counter;
-                    heap.push(Entry{c.cost, c.quality, e.w, c.s, live_seq[e.w], stamp[e.w], false});
+                    heap.push(Entry{c.cost, c.quality, e.w, c.partial ? kNil : c.s, live_seq[e.w], stamp[e.w],
+                                    false, c.partial});
                 }
                 continue;
             }
             if (e.cost > opt.max_error) break;
             commit(e.w, e.s);
+            ++n_commit;
         }
+        if (std::getenv("TETLOD_MT_STATS"))
+            std::fprintf(stderr, "mt build: %llu commits, %llu evaluations (%llu points), %llu link tests, %llu failed\n",
+                         (unsigned long long)n_commit, (unsigned long long)n_eval, (unsigned long long)n_pts,
+                         (unsigned long long)n_link, (unsigned long long)n_link_fail);
         // Base mesh.
         std::vector<uint8_t> dead(tv.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;

@@ -54,7 +54,7 @@ void MtModel::finalize() {
         if (u.w >= n || u.s >= n || u.w == u.s) corrupt("update vertex out of range");
         if (u.label == 0) corrupt("update label 0");
         if (!(u.error >= 0.0f)) corrupt("negative or NaN error");
-        if (u.star < 2 || u.star > 4096) corrupt("star size out of range");
+        if (u.star < 1 || u.star > base_.size() + 5 * n) corrupt("star size out of range");
         if (u.mask_offset > total_bits || u.star > total_bits - u.mask_offset) corrupt("mask out of range");
         if (removed_by_[u.w] != mt::kNil) corrupt("grid point inserted twice");
         if (is_base[u.w]) corrupt("base vertex inserted by an update");
