@@ -77,7 +77,8 @@ using DiamondErrorFn = std::function<double(const Pt&)>;
 /// Minimality: for every split diamond all of whose tets are inside B and whose
 /// children tets are all output leaves, merging it must break the bound for at least
 /// one of its tets (per-diamond errors: the diamond's error = max exact error of its
-/// tets). Returns readable failures; `checked` receives the number of candidates.
+/// tets; model_error, when given, is used instead and must be >= the exact one).
+/// Returns readable failures; `checked` receives the number of candidates.
 std::vector<std::string> find_mergeable_diamonds(const Volume& field, const MeshWalk& walk,
                                                  const TetBound& eps, const DiamondErrorFn& model_error,
                                                  int64_t* checked = nullptr);
@@ -99,8 +100,26 @@ struct OracleResult {
     std::vector<uint8_t> diamond_has_inside;  // 1 where some tet of the diamond is inside B
     std::vector<uint8_t> split;               // split diamonds
 };
-/// Coarsest conforming mesh of the definition (notes sections 5, 6) with per-diamond
-/// errors: exact ones, or model_error(c) for centres in B when given.
+/// Brute-force selective refinement on a whole hierarchy: box status of every tet
+/// (bottom-up from the unit tets), exact errors of every tet inside B, diamonds
+/// grouped by spine midpoint, their parents; prepared once per field.
+class HtOracle {
+public:
+    HtOracle(const HtHierarchy& h, const Volume& field);
+    /// Coarsest conforming mesh of the definition (notes sections 5, 6) with
+    /// per-diamond errors: exact ones, or model_error(c) for centres in B when given.
+    OracleResult extract(const TetBound& eps, const DiamondErrorFn& model_error = {}) const;
+
+private:
+    const HtHierarchy& h_;
+    std::vector<uint8_t> status_;  // 0 inside, 1 outside, 2 crossing
+    std::vector<int64_t> centre_;
+    std::vector<std::vector<int32_t>> dtets_, dparents_;
+    std::vector<double> derr_;
+    std::vector<uint8_t> forced_, has_inside_;
+};
+
+/// One-shot HtOracle(h, field).extract(eps, model_error).
 OracleResult oracle_extract(const HtHierarchy& h, const Volume& field, const TetBound& eps,
                             const DiamondErrorFn& model_error = {});
 
