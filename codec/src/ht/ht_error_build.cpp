@@ -9,8 +9,8 @@
 //  - larger or boundary diamonds scan each tet row by row: the integer
 //    barycentric numerators D_i are affine along a row, so the x range inside the
 //    closed tet follows from four divisions, and the interpolant from adds.
-// Values are compared as |f*D - sum D_i f_i| / D with |D| a power of two, which is
-// exact in double for 8- and 16-bit data (|D| <= 2^30, so all terms < 2^48).
+// Errors are compared as |f*D - sum D_i f_i| / D with |D| a power of two: exact
+// for integer data (double or 128-bit accumulators, see compute_diamond_errors).
 #include "ht_error_build.hpp"
 
 #include <tbb/parallel_for.h>
@@ -18,6 +18,7 @@
 #include <bit>
 #include <cfloat>
 #include <cmath>
+#include <type_traits>
 #include <limits>
 #include <map>
 #include <unordered_map>
@@ -45,7 +46,8 @@ struct Barycentric {
     int64_t D;
 };
 
-Barycentric barycentric_of(Tet t, double* f) {
+template <class V>
+Barycentric barycentric_of(Tet t, V* f) {
     Barycentric b;
     int64_t D = orient(t[0], t[1], t[2], t[3]);
     if (D < 0) {
@@ -76,7 +78,24 @@ Barycentric barycentric_of(Tet t, double* f) {
     return b;
 }
 
-template <class T>
+/// Accumulators: double where every term is exact (|values| * |D| < 2^49), else
+/// 128-bit integers (32-bit integer data, very deep hierarchies).
+template <class Acc>
+Acc abs_value(Acc v) { return v < 0 ? -v : v; }
+
+/// Converts a non-negative accumulator to double, rounding up.
+template <class Acc>
+double to_double_up(Acc v) {
+    if constexpr (std::is_same_v<Acc, double>) {
+        return v;
+    } else {
+        double d = double(v);
+        if (Acc(d) < v) d = std::nextafter(d, std::numeric_limits<double>::infinity());
+        return d;
+    }
+}
+
+template <class T, class Acc>
 class ErrorBuilder {
 public:
     ErrorBuilder(const Volume& field, const HtDomain& dom)
@@ -86,26 +105,26 @@ public:
 
     /// max |f*D - N| over the closed tet's points, divided by D: scans rows.
     double scan_tet(const Tet& t) const {
-        double fv[4];
-        for (int i = 0; i < 4; ++i) fv[i] = double(f_[index(t[i])]);
+        Acc fv[4];
+        for (int i = 0; i < 4; ++i) fv[i] = Acc(f_[index(t[i])]);
         Barycentric b = barycentric_of(t, fv);
         int32_t lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = std::min({t[0][a], t[1][a], t[2][a], t[3][a]});
             hi[a] = std::max({t[0][a], t[1][a], t[2][a], t[3][a]});
         }
-        const double D = double(b.D);
-        double A = 0;  // slope of N along x
-        for (int i = 0; i < 4; ++i) A += double(b.n[i][0]) * fv[i];
-        double worst = 0;
+        const Acc D = Acc(b.D);
+        Acc A = 0;  // slope of N along x
+        for (int i = 0; i < 4; ++i) A += Acc(b.n[i][0]) * fv[i];
+        Acc worst = 0;
         for (int64_t z = lo[2]; z <= hi[2]; ++z) {
             for (int64_t y = lo[1]; y <= hi[1]; ++y) {
                 int64_t x0 = lo[0], x1 = hi[0];
-                double Bc = 0;
+                Acc Bc = 0;
                 for (int i = 0; i < 4 && x0 <= x1; ++i) {
                     const int64_t bi = b.n[i][1] * y + b.n[i][2] * z + b.c[i];
                     const int64_t ai = b.n[i][0];
-                    Bc += double(bi) * fv[i];
+                    Bc += Acc(bi) * fv[i];
                     if (ai > 0) x0 = std::max(x0, ceil_div(-bi, ai));
                     else if (ai < 0) x1 = std::min(x1, floor_div(bi, -ai));
                     else if (bi < 0) x1 = x0 - 1;
@@ -113,12 +132,12 @@ public:
                 if (x0 > x1) continue;
                 const T* row = f_ + z * XY_ + y * X_;
                 for (int64_t x = x0; x <= x1; ++x) {
-                    const double e = std::abs(double(row[x]) * D - (A * double(x) + Bc));
+                    const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
                     worst = e > worst ? e : worst;
                 }
             }
         }
-        return worst / D;
+        return to_double_up(worst) / double(b.D);
     }
 
     /// Template: the non-vertex grid points of one diamond shape, each with the
@@ -127,10 +146,10 @@ public:
         struct Entry {
             int64_t p;
             int64_t v[4];
-            double w[4];
+            Acc w[4];
         };
         std::vector<Entry> entries;
-        double D = 1;
+        Acc D = 1;
     };
 
     Template make_template(const Pt& c, const DiamondInfo& d) const {
@@ -144,7 +163,7 @@ public:
             double dummy[4] = {0, 0, 0, 0};
             Barycentric b = barycentric_of(t, dummy);
             if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
-            tpl.D = double(b.D);
+            tpl.D = Acc(b.D);
             for (int32_t z = c[2] - d.h; z <= c[2] + d.h; ++z)
                 for (int32_t y = c[1] - d.h; y <= c[1] + d.h; ++y)
                     for (int32_t x = c[0] - d.h; x <= c[0] + d.h; ++x) {
@@ -162,7 +181,7 @@ public:
                         e.p = off;
                         for (int i = 0; i < 4; ++i) {
                             e.v[i] = index(t[i]) - index(c);
-                            e.w[i] = double(w[i]);
+                            e.w[i] = Acc(w[i]);
                         }
                         points.emplace(off, e);  // shared-face points: same value either way
                     }
@@ -173,14 +192,14 @@ public:
 
     double eval_template(const Template& tpl, int64_t ci) const {
         const T* base = f_ + ci;
-        double worst = 0;
+        Acc worst = 0;
         for (const auto& e : tpl.entries) {
-            const double n = e.w[0] * double(base[e.v[0]]) + e.w[1] * double(base[e.v[1]]) +
-                             e.w[2] * double(base[e.v[2]]) + e.w[3] * double(base[e.v[3]]);
-            const double err = std::abs(double(base[e.p]) * tpl.D - n);
+            const Acc n = e.w[0] * Acc(base[e.v[0]]) + e.w[1] * Acc(base[e.v[1]]) +
+                          e.w[2] * Acc(base[e.v[2]]) + e.w[3] * Acc(base[e.v[3]]);
+            const Acc err = abs_value(Acc(base[e.p]) * tpl.D - n);
             worst = err > worst ? err : worst;
         }
-        return worst / tpl.D;
+        return to_double_up(worst) / double(tpl.D);
     }
 
     double diamond_error(const Pt& c, const DiamondInfo& d) const {
@@ -264,18 +283,23 @@ private:
 
 std::vector<float> compute_diamond_errors(const Volume& field, const HtDomain& domain) {
     std::vector<float> errors(static_cast<std::size_t>(field.count()), 0.0f);
-    // 8- and 16-bit integers are evaluated exactly; wider types get a slack of a
-    // few ulps of the largest magnitude so the stored bound stays conservative.
-    const bool exact = value_size(field.type) <= 2 && !is_float(field.type) && domain.k <= 10;
-    double slack = 0;
-    if (!exact) {
-        auto r = field.range();
-        slack = 64 * DBL_EPSILON * std::max(std::abs(r[0]), std::abs(r[1]));
-    }
     dispatch_value_type(field.type, [&](auto tag) {
         using T = decltype(tag);
-        ErrorBuilder<T> b(field, domain);
-        b.run(errors, slack);
+        if constexpr (std::is_integral_v<T>) {
+            // Integers are evaluated exactly: in double while every term stays below
+            // 2^53 (value bits + 3k + 4 bits), otherwise in 128-bit integers.
+            if (int(8 * sizeof(T)) + 3 * domain.k + 4 <= 53) {
+                ErrorBuilder<T, double>(field, domain).run(errors, 0.0);
+            } else {
+                ErrorBuilder<T, __int128>(field, domain).run(errors, 0.0);
+            }
+        } else {
+            // Floats: rounding is unavoidable, so add a slack of a few ulps of the
+            // largest magnitude to keep the stored bound conservative.
+            const auto r = field.range();
+            const double slack = 64 * DBL_EPSILON * std::max(std::abs(r[0]), std::abs(r[1]));
+            ErrorBuilder<T, double>(field, domain).run(errors, slack);
+        }
     });
     return errors;
 }

@@ -57,8 +57,12 @@ inline bool in_cube(const Pt& p, int32_t L) {
 /// count (<= 4); points outside the cube are dropped.
 inline int diamond_parents(const Pt& c, const DiamondInfo& d, int32_t L, Pt out[4]) {
     int n = 0;
+    // Cube corners are not diamonds: the root diamond's formula points at them.
     auto add = [&](Pt p) {
-        if (in_cube(p, L)) out[n++] = p;
+        if (!in_cube(p, L)) return;
+        const bool corner = (p[0] == 0 || p[0] == L) && (p[1] == 0 || p[1] == L) &&
+                            (p[2] == 0 || p[2] == L);
+        if (!corner) out[n++] = p;
     };
     const int32_t h = d.h, s = 2 * h;
     if (d.cls == 0) {
