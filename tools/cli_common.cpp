@@ -1,7 +1,6 @@
 #include "cli_common.hpp"
 
 #include <CLI/CLI.hpp>
-
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -21,7 +20,8 @@ int g_verbosity = 0;
 
 // An empty flag leaves the name out: CLI11 prefixes its own when a check fails.
 Error bad(const std::string& flag, const std::string& text, const std::string& why) {
-    return Error(ErrorCode::InvalidArgument, (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
+    return Error(ErrorCode::InvalidArgument,
+                 (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
 }
 
 // Splits on commas; keeps empty fields so "1,,2" is reported, not silently merged.
@@ -82,7 +82,8 @@ Dims parse_dims(const std::string& text, const std::string& flag) {
 Vec3 parse_vec3(const std::string& text, const std::string& flag) {
     const auto parts = split(text);
     if (parts.size() != 3) throw bad(flag, text, "expected three comma-separated numbers");
-    return {parse_number(parts[0], flag), parse_number(parts[1], flag), parse_number(parts[2], flag)};
+    return {parse_number(parts[0], flag), parse_number(parts[1], flag),
+            parse_number(parts[2], flag)};
 }
 
 ValueType parse_dtype(const std::string& text, const std::string& flag) {
@@ -97,7 +98,8 @@ std::array<int64_t, 6> parse_box(const std::string& text, const std::string& fla
     std::array<int64_t, 6> b{};
     for (int i = 0; i < 6; ++i) b[i] = parse_int(parts[i], flag, text);
     for (int a = 0; a < 3; ++a)
-        if (b[a] > b[a + 3]) throw bad(flag, text, "each lower corner must not exceed the upper one");
+        if (b[a] > b[a + 3])
+            throw bad(flag, text, "each lower corner must not exceed the upper one");
     return b;
 }
 
@@ -146,8 +148,9 @@ VolumeReadOptions VolumeFlags::options() const {
 }
 
 void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
-    const std::string group = "Volume input (raw files; dims and dtype can come from a name "
-                              "like NAME_XxYxZ_DTYPE.raw)";
+    const std::string group =
+        "Volume input (raw files; dims and dtype can come from a name "
+        "like NAME_XxYxZ_DTYPE.raw)";
     sub.add_option("--dims", f.dims, "Samples per axis X,Y,Z (x varies fastest)")
         ->group(group)
         ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));

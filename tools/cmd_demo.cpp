@@ -2,7 +2,6 @@
 // writes the volumes as raw files and a series of level-of-detail meshes (full,
 // uniform, box and isovalue queries) ready to compare side by side in ParaView.
 #include <CLI/CLI.hpp>
-
 #include <cstdio>
 #include <filesystem>
 #include <ostream>
@@ -39,13 +38,15 @@ std::vector<DemoQuery> demo_queries(const Dims& dims, const std::array<double, 2
     full.query.full = true;
     qs.push_back(full);
     for (int p : {1, 5, 10}) {
-        DemoQuery q{"error" + std::to_string(p) + "pct", "uniform, error <= " + std::to_string(p) + "%", {}};
+        DemoQuery q{"error" + std::to_string(p) + "pct",
+                    "uniform, error <= " + std::to_string(p) + "%",
+                    {}};
         q.query.error_in = pct(p);
         qs.push_back(q);
     }
     // The middle half of the grid exact, the rest coarse: a focus+context view.
     DemoQuery box{"box", "", {}};
-    box.query.box = std::array<int64_t, 6>{dims.x / 4, dims.y / 4, dims.z / 4,
+    box.query.box = std::array<int64_t, 6>{dims.x / 4,     dims.y / 4,     dims.z / 4,
                                            3 * dims.x / 4, 3 * dims.y / 4, 3 * dims.z / 4};
     box.label = "box " + std::to_string(dims.x / 4) + ".." + std::to_string(3 * dims.x / 4) +
                 ": exact inside, 10% outside";
@@ -67,7 +68,8 @@ int run_demo(const DemoArgs& a) {
     std::error_code ec;
     fs::create_directories(a.out_dir, ec);
     if (ec)
-        throw Error(ErrorCode::IoError, "cannot create directory '" + a.out_dir + "': " + ec.message());
+        throw Error(ErrorCode::IoError,
+                    "cannot create directory '" + a.out_dir + "': " + ec.message());
     const Dims dims{a.size, a.size, a.size};
     auto& o = out();
 
@@ -75,8 +77,8 @@ int run_demo(const DemoArgs& a) {
     for (const std::string name : {"marschner-lobb", "multiscale"}) {
         Volume volume = make_sample_volume(name, dims, ValueType::U8);
         // The conventional name lets 'tetlod extract' read the file back without flags.
-        const std::string raw = (fs::path(a.out_dir) /
-                                 (name + "_" + format_dims(dims) + "_uint8.raw")).string();
+        const std::string raw =
+            (fs::path(a.out_dir) / (name + "_" + format_dims(dims) + "_uint8.raw")).string();
         write_raw_volume(volume, raw, Endian::Little);
         o << "wrote " << raw << " (" << format_bytes(volume.bytes()) << ")\n";
 
@@ -84,8 +86,8 @@ int run_demo(const DemoArgs& a) {
         const HtModel model = HtModel::build(std::move(volume));
         o << "built the HT of " << name << " in " << format_seconds(build_clock.seconds()) << "\n";
         const auto range = model.value_range();
-        std::snprintf(line, sizeof line, "%-34s %-44s %9s %9s %-22s %9s\n", "file", "query",
-                      "tets", "vertices", "max error", "extract");
+        std::snprintf(line, sizeof line, "%-34s %-44s %9s %9s %-22s %9s\n", "file", "query", "tets",
+                      "vertices", "max error", "extract");
         o << line;
         for (const auto& q : demo_queries(dims, range)) {
             HtExtractStats stats;
@@ -106,20 +108,21 @@ int run_demo(const DemoArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
-    "demo", "Run the pipeline on the built-in volumes and write meshes to compare", 90,
-    [](CLI::App& sub) -> std::function<int()> {
-        auto a = std::make_shared<DemoArgs>();
-        sub.add_option("--out", a->out_dir, "Output directory (created if missing)")
-            ->capture_default_str();
-        sub.add_option("--size", a->size, "Samples along each axis of the volumes")
-            ->capture_default_str()
-            ->check(CLI::Range(int64_t{2}, int64_t{1025}));
-        sub.footer("Examples:\n"
-                   "  tetlod demo\n"
-                   "  tetlod demo --out /tmp/lod --size 129 && paraview /tmp/lod/*.vtu");
-        return [a] { return run_demo(*a); };
-    }}};
+const CommandRegistration registration{
+    Command{"demo", "Run the pipeline on the built-in volumes and write meshes to compare", 90,
+            [](CLI::App& sub) -> std::function<int()> {
+                auto a = std::make_shared<DemoArgs>();
+                sub.add_option("--out", a->out_dir, "Output directory (created if missing)")
+                    ->capture_default_str();
+                sub.add_option("--size", a->size, "Samples along each axis of the volumes")
+                    ->capture_default_str()
+                    ->check(CLI::Range(int64_t{2}, int64_t{1025}));
+                sub.footer(
+                    "Examples:\n"
+                    "  tetlod demo\n"
+                    "  tetlod demo --out /tmp/lod --size 129 && paraview /tmp/lod/*.vtu\n");
+                return [a] { return run_demo(*a); };
+            }}};
 
 }  // namespace
 

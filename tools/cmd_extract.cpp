@@ -2,7 +2,6 @@
 // level-of-detail mesh: uniform (--error), region-driven (--box, --isovalue with
 // --error inside and --error-out elsewhere) or the full-resolution reference.
 #include <CLI/CLI.hpp>
-
 #include <filesystem>
 #include <limits>
 #include <ostream>
@@ -18,7 +17,7 @@ namespace tetlod::cli {
 namespace {
 
 struct ExtractArgs {
-    std::string input, output, model = "ht", error, error_out = "inf", box, format;
+    std::string input, output, model = "ht", error, error_out, box, format;  // empty: not given
     std::vector<std::string> isovalues;
     bool full = false, pad = false, no_compress = false;
     VolumeFlags volume;
@@ -42,12 +41,14 @@ int run_extract(const ExtractArgs& a) {
         throw Error(ErrorCode::InvalidArgument,
                     "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
     const bool region = !a.box.empty() || !a.isovalues.empty();
-    if (a.error_out != "inf" && !region)
-        throw Error(ErrorCode::InvalidArgument, "--error-out applies outside a region: "
-                                                "give --box and/or --isovalue too");
-    const auto error_in = a.error.empty() ? ErrorThreshold{}
-                                          : ErrorThreshold::parse(a.error, "--error");
-    const auto error_out = ErrorThreshold::parse(a.error_out, "--error-out");
+    if (!a.error_out.empty() && !region)
+        throw Error(ErrorCode::InvalidArgument,
+                    "--error-out applies outside a region: "
+                    "give --box and/or --isovalue too");
+    const auto error_in =
+        a.error.empty() ? ErrorThreshold{} : ErrorThreshold::parse(a.error, "--error");
+    const auto error_out =
+        ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
 
     Volume volume = load_volume(a.input, a.volume.options());
     const Dims dims = volume.dims;
@@ -113,19 +114,21 @@ const CommandRegistration registration{Command{
     "extract", "Build a model of a volume and write a level-of-detail tetrahedral mesh", 20,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ExtractArgs>();
-        sub.add_option("input", a->input, "Input volume (raw)")->required();
+        sub.add_option("input", a->input, "Input volume file")->required();
         sub.add_option("output", a->output, "Output mesh (.vtu or .vtk)")->required();
         add_volume_flags(sub, a->volume);
 
-        const std::string lod = "Level of detail (E: absolute like 0.5, percent of the value "
-                                "range like 1%, inf, or negative = full resolution)";
-        const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
+        const std::string lod =
+            "Level of detail (E: absolute like 0.5, percent of the value "
+            "range like 1%, inf, or negative = full resolution)";
+        const auto threshold =
+            check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
         sub.add_option("--error", a->error, "Largest error allowed (inside the region if any)")
             ->group(lod)
             ->check(threshold);
-        sub.add_option("--error-out", a->error_out, "Largest error outside the region")
+        sub.add_option("--error-out", a->error_out,
+                       "Largest error outside the region (default inf)")
             ->group(lod)
-            ->capture_default_str()
             ->check(threshold);
         sub.add_option("--box", a->box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
             ->group(lod)
@@ -151,11 +154,12 @@ const CommandRegistration registration{Command{
             ->check(CLI::IsMember({"vtu", "vtk"}));
         sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed")
             ->group(model);
-        sub.footer("Examples:\n"
-                   "  tetlod extract bucky_32x32x32_uint8.raw bucky.vtu --error 1%\n"
-                   "  tetlod extract head.raw head.vtu --dims 256,256,99 --dtype u16 \\\n"
-                   "      --error 0 --box 64,64,20,192,192,80 --error-out 5%\n"
-                   "  tetlod extract ml_65x65x65_uint8.raw iso.vtk --isovalue 128 --error 0.5");
+        sub.footer(
+            "Examples:\n"
+            "  tetlod extract bucky_32x32x32_uint8.raw bucky.vtu --error 1%\n"
+            "  tetlod extract head.raw head.vtu --dims 256,256,99 --dtype u16 \\\n"
+            "      --error 0 --box 64,64,20,192,192,80 --error-out 5%\n"
+            "  tetlod extract ml_65x65x65_uint8.raw iso.vtk --isovalue 128 --error 0.5\n");
         return [a] { return run_extract(*a); };
     }}};
 

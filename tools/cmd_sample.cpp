@@ -1,7 +1,6 @@
 // tetlod sample: writes one of the built-in analytic volumes as a raw file, so
 // every other command can be tried without data.
 #include <CLI/CLI.hpp>
-
 #include <filesystem>
 #include <ostream>
 
@@ -46,30 +45,32 @@ int run_sample(const SampleArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
-    "sample", "Write a built-in analytic volume as a raw file", 10,
-    [](CLI::App& sub) -> std::function<int()> {
-        auto args = std::make_shared<SampleArgs>();
-        sub.add_option("name", args->name, "Volume: " + names_text())
-            ->required()
-            ->check(CLI::IsMember(sample_volume_names()));
-        sub.add_option("output", args->output, "Output raw file (little-endian, x fastest)")
-            ->required();
-        auto* size = sub.add_option("--size", args->size, "Samples along each axis")
-                         ->capture_default_str()
-                         ->check(CLI::Range(int64_t{2}, kMaxAxisSize));
-        sub.add_option("--dims", args->dims, "Samples per axis X,Y,Z (instead of --size)")
-            ->excludes(size)
-            ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));
-        sub.add_option("--dtype", args->dtype, "Sample type: u8|i8|u16|i16|u32|i32|f32|f64 "
-                                               "(integers span the type's full range)")
-            ->capture_default_str()
-            ->check(check_with([](const std::string& s) { parse_dtype(s, ""); }));
-        sub.footer("Examples:\n"
-                   "  tetlod sample marschner-lobb ml_65x65x65_uint8.raw\n"
-                   "  tetlod sample multiscale ms.raw --dims 129,129,65 --dtype f32");
-        return [args] { return run_sample(*args); };
-    }}};
+const CommandRegistration registration{
+    Command{"sample", "Write a built-in analytic volume as a raw file", 10,
+            [](CLI::App& sub) -> std::function<int()> {
+                auto args = std::make_shared<SampleArgs>();
+                sub.add_option("name", args->name, "Volume: " + names_text())
+                    ->required()
+                    ->check(CLI::IsMember(sample_volume_names()));
+                sub.add_option("output", args->output, "Output raw file (little-endian, x fastest)")
+                    ->required();
+                auto* size = sub.add_option("--size", args->size, "Samples along each axis")
+                                 ->capture_default_str()
+                                 ->check(CLI::Range(int64_t{2}, kMaxAxisSize));
+                sub.add_option("--dims", args->dims, "Samples per axis X,Y,Z (instead of --size)")
+                    ->excludes(size)
+                    ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));
+                sub.add_option("--dtype", args->dtype,
+                               "Sample type: u8|i8|u16|i16|u32|i32|f32|f64 "
+                               "(integers span the type's full range)")
+                    ->capture_default_str()
+                    ->check(check_with([](const std::string& s) { parse_dtype(s, ""); }));
+                sub.footer(
+                    "Examples:\n"
+                    "  tetlod sample marschner-lobb ml_65x65x65_uint8.raw\n"
+                    "  tetlod sample multiscale ms.raw --dims 129,129,65 --dtype f32\n");
+                return [args] { return run_sample(*args); };
+            }}};
 
 }  // namespace
 

@@ -3,7 +3,6 @@
 //   0 success, 2 bad usage (CLI11 parse errors, InvalidArgument), and otherwise
 //   tetlod::exit_code_for() of the error (3 I/O, 4 bad input, 5 not built).
 #include <CLI/CLI.hpp>
-
 #include <algorithm>
 #include <exception>
 #include <iostream>
@@ -35,13 +34,15 @@ int main(int argc, char** argv) {
     int verbose = 0;
     app.add_flag("-q,--quiet", quiet, "Print only errors");
     app.add_flag("-v,--verbose", verbose, "Print more detail (repeat for more)");
-    app.footer("Run 'tetlod <command> --help' for the options of a command.\n"
-               "Exit codes: 0 ok, 2 bad usage, 3 I/O error, 4 bad input data, "
-               "5 feature not built.");
+    app.footer(
+        "Run 'tetlod <command> --help' for the options of a command.\n"
+        "Exit codes: 0 ok, 2 bad usage, 3 I/O error, 4 bad input data, "
+        "5 feature not built.");
 
     auto commands = cli::command_registry();
-    std::stable_sort(commands.begin(), commands.end(),
-                     [](const cli::Command& a, const cli::Command& b) { return a.order < b.order; });
+    std::stable_sort(
+        commands.begin(), commands.end(),
+        [](const cli::Command& a, const cli::Command& b) { return a.order < b.order; });
     std::vector<std::pair<CLI::App*, std::function<int()>>> runners;
     for (const auto& c : commands) {
         CLI::App* sub = app.add_subcommand(c.name, c.summary);

@@ -20,7 +20,8 @@ std::string tmp(const std::string& name) { return (fs::path(TETLOD_TEST_TMP) / n
 
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
     std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    f.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
 }
 
 std::vector<uint8_t> read_bytes(const std::string& path) {
@@ -62,7 +63,8 @@ TEST(RawVolume, RoundTripEveryTypeAndEndian) {
     const Dims dims{5, 3, 4};
     for (ValueType type : kAllTypes) {
         for (Endian endian : {Endian::Little, Endian::Big}) {
-            SCOPED_TRACE(std::string(value_type_name(type)) + (endian == Endian::Big ? " big" : " little"));
+            SCOPED_TRACE(std::string(value_type_name(type)) +
+                         (endian == Endian::Big ? " big" : " little"));
             const Volume v = pattern_volume(type, dims);
             const std::string path = tmp("rt.raw");
             write_raw_volume(v, path, endian);
@@ -92,10 +94,10 @@ TEST(RawVolume, BigEndianBytesOnDisk) {
     EXPECT_EQ(bytes[1], 0x02);
 
     // And a hand-made big-endian i32 file is read as host values.
-    write_bytes(tmp("be_i32_2x2x2_i32.raw"), std::vector<uint8_t>{0xFF, 0xFF, 0xFF, 0xFE, 0, 0, 1, 0,
-                                                                  0, 0, 0, 0, 0, 0, 0, 0,
-                                                                  0, 0, 0, 0, 0, 0, 0, 0,
-                                                                  0, 0, 0, 0, 0x7F, 0xFF, 0xFF, 0xFF});
+    write_bytes(tmp("be_i32_2x2x2_i32.raw"),
+                std::vector<uint8_t>{0xFF, 0xFF, 0xFF, 0xFE, 0, 0, 1,    0,    0,    0,   0,
+                                     0,    0,    0,    0,    0, 0, 0,    0,    0,    0,   0,
+                                     0,    0,    0,    0,    0, 0, 0x7F, 0xFF, 0xFF, 0xFF});
     VolumeReadOptions o;
     o.endian = Endian::Big;
     const Volume r = read_raw_volume(tmp("be_i32_2x2x2_i32.raw"), o);
@@ -115,7 +117,8 @@ TEST(RawVolume, ParsesNameConvention) {
     EXPECT_EQ(b->dims, (Dims{64, 64, 93}));
     EXPECT_EQ(b->type, ValueType::I16);
 
-    auto c = parse_raw_volume_name("my_big_vol_2X3x4_float32.bin");  // underscores, 'X', any extension
+    auto c =
+        parse_raw_volume_name("my_big_vol_2X3x4_float32.bin");  // underscores, 'X', any extension
     ASSERT_TRUE(c);
     EXPECT_EQ(c->dims, (Dims{2, 3, 4}));
     EXPECT_EQ(c->type, ValueType::F32);
@@ -176,7 +179,8 @@ TEST(RawVolume, SizeMismatchNamesFileAndSizes) {
     EXPECT_NE(msg.find("127"), std::string::npos) << msg;
 
     write_bytes(tmp("long_2x2x2_u8.raw"), std::vector<uint8_t>(9, 0));  // trailing bytes too
-    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("long_2x2x2_u8.raw"), {}); }), ErrorCode::SizeMismatch);
+    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("long_2x2x2_u8.raw"), {}); }),
+              ErrorCode::SizeMismatch);
 }
 
 TEST(RawVolume, HugeClaimedDimsAreRefusedBeforeAllocating) {
@@ -201,16 +205,19 @@ TEST(RawVolume, RefusesSingleSampleAxes) {
     VolumeReadOptions o;
     o.dims = Dims{0, 4, 4};
     o.type = ValueType::U8;
-    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("flat_4x4x1_u8.raw"), o); }), ErrorCode::InvalidArgument);
+    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("flat_4x4x1_u8.raw"), o); }),
+              ErrorCode::InvalidArgument);
 }
 
 TEST(RawVolume, MissingFileAndMissingDims) {
     std::string msg;
-    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("absent_2x2x2_u8.raw"), {}); }, &msg), ErrorCode::IoError);
+    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("absent_2x2x2_u8.raw"), {}); }, &msg),
+              ErrorCode::IoError);
     EXPECT_NE(msg.find("absent_2x2x2_u8.raw"), std::string::npos) << msg;
 
     write_bytes(tmp("plain.raw"), std::vector<uint8_t>(8, 0));
-    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("plain.raw"), {}); }, &msg), ErrorCode::InvalidArgument);
+    EXPECT_EQ(error_of([&] { read_raw_volume(tmp("plain.raw"), {}); }, &msg),
+              ErrorCode::InvalidArgument);
     EXPECT_NE(msg.find("--dims"), std::string::npos) << msg;
 }
 
@@ -219,7 +226,8 @@ TEST(RawVolume, SlabBoundariesAreSeamless) {
     // swapping per slab leaves no sample split or skipped.
     const Dims dims{256, 256, 40};  // 2.6 M samples, 10 MiB as u32
     Volume v = Volume::allocate(dims, ValueType::U32);
-    for (int64_t i = 0; i < v.count(); ++i) v.as<uint32_t>()[i] = static_cast<uint32_t>(i * 2654435761u);
+    for (int64_t i = 0; i < v.count(); ++i)
+        v.as<uint32_t>()[i] = static_cast<uint32_t>(i * 2654435761u);
     const std::string path = tmp("slabs.raw");
     write_raw_volume(v, path, Endian::Big);
     VolumeReadOptions o;

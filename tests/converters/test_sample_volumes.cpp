@@ -48,9 +48,10 @@ TEST(SampleVolumes, MarschnerLobbMatchesDefinitionF64) {
     for (int64_t k = 0; k < d.z; ++k)
         for (int64_t j = 0; j < d.y; ++j)
             for (int64_t i = 0; i < d.x; ++i)
-                ASSERT_NEAR(v.value(i, j, k),
-                            ml_definition(grid_coord(i, d.x), grid_coord(j, d.y), grid_coord(k, d.z)),
-                            1e-12)
+                ASSERT_NEAR(
+                    v.value(i, j, k),
+                    ml_definition(grid_coord(i, d.x), grid_coord(j, d.y), grid_coord(k, d.z)),
+                    1e-12)
                     << i << "," << j << "," << k;
 }
 
@@ -61,21 +62,27 @@ TEST(SampleVolumes, U8QuantisesOntoFullRange) {
     for (int64_t k = 0; k < d.z; ++k)
         for (int64_t j = 0; j < d.y; ++j)
             for (int64_t i = 0; i < d.x; ++i) {
-                const double f = ml_definition(grid_coord(i, d.x), grid_coord(j, d.y), grid_coord(k, d.z));
+                const double f =
+                    ml_definition(grid_coord(i, d.x), grid_coord(j, d.y), grid_coord(k, d.z));
                 ASSERT_NEAR(v.value(i, j, k), f * 255.0, 0.5 + 1e-9);
             }
 }
 
 TEST(SampleVolumes, IntegerTypesStayInRange) {
-    for (ValueType t : {ValueType::I8, ValueType::U16, ValueType::I16, ValueType::U32, ValueType::I32}) {
+    for (ValueType t :
+         {ValueType::I8, ValueType::U16, ValueType::I16, ValueType::U32, ValueType::I32}) {
         const Volume v = make_sample_volume("sphere", Dims{9, 9, 9}, t);
         const auto r = v.range();
         // Corners are f = 0 and the centre f = 1: both ends of the type are used.
-        const double lo = t == ValueType::I8 ? -128 : t == ValueType::I16 ? -32768
-                          : t == ValueType::I32 ? -2147483648.0 : 0;
-        const double hi = t == ValueType::I8 ? 127 : t == ValueType::U16 ? 65535
-                          : t == ValueType::I16 ? 32767 : t == ValueType::U32 ? 4294967295.0
-                                                                                : 2147483647.0;
+        const double lo = t == ValueType::I8    ? -128
+                          : t == ValueType::I16 ? -32768
+                          : t == ValueType::I32 ? -2147483648.0
+                                                : 0;
+        const double hi = t == ValueType::I8    ? 127
+                          : t == ValueType::U16 ? 65535
+                          : t == ValueType::I16 ? 32767
+                          : t == ValueType::U32 ? 4294967295.0
+                                                : 2147483647.0;
         EXPECT_EQ(r[0], lo) << value_type_name(t);
         EXPECT_EQ(r[1], hi) << value_type_name(t);
     }

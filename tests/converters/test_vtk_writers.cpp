@@ -127,7 +127,8 @@ Vtu read_vtu(const std::string& path) {
             arr.bytes.resize(n);
             std::memcpy(arr.bytes.data(), s.data() + pos + 8, n);
         } else {
-            const uint64_t nblocks = u64_at(s, pos), bs = u64_at(s, pos + 8), last = u64_at(s, pos + 16);
+            const uint64_t nblocks = u64_at(s, pos), bs = u64_at(s, pos + 8),
+                           last = u64_at(s, pos + 16);
             std::size_t data = pos + 24 + 8 * nblocks;
             for (uint64_t b = 0; b < nblocks; ++b) {
                 const uint64_t csize = u64_at(s, pos + 24 + 8 * b);
@@ -160,7 +161,8 @@ void expect_vtu_matches(const Vtu& v, const TetMesh& m) {
     ASSERT_EQ(xyz.size(), 3 * m.points.size());
     for (std::size_t i = 0; i < m.points.size(); ++i)
         for (int a = 0; a < 3; ++a)
-            ASSERT_EQ(xyz[3 * i + a], m.geometry.origin[a] + m.geometry.spacing[a] * m.points[i][a]);
+            ASSERT_EQ(xyz[3 * i + a],
+                      m.geometry.origin[a] + m.geometry.spacing[a] * m.points[i][a]);
 
     EXPECT_EQ(v.arrays.at(m.field_name).type, "Float64");
     EXPECT_EQ(v.arrays.at(m.field_name).as<double>(), m.values);
@@ -184,7 +186,7 @@ void expect_vtu_matches(const Vtu& v, const TetMesh& m) {
 // ---- legacy reader ------------------------------------------------------------
 
 class LegacyReader {
-public:
+  public:
     explicit LegacyReader(const std::string& path) : s_(slurp(path)) {}
     std::string line() {
         const auto e = s_.find('\n', pos_);
@@ -198,7 +200,8 @@ public:
         for (auto& x : v) {
             std::byte b[sizeof(T)];
             std::memcpy(b, s_.data() + pos_, sizeof(T));
-            if constexpr (std::endian::native == std::endian::little) std::reverse(b, b + sizeof(T));
+            if constexpr (std::endian::native == std::endian::little)
+                std::reverse(b, b + sizeof(T));
             std::memcpy(&x, b, sizeof(T));
             pos_ += sizeof(T);
         }
@@ -208,7 +211,7 @@ public:
     }
     bool at_end() const { return pos_ == s_.size(); }
 
-private:
+  private:
     std::string s_;
     std::size_t pos_ = 0;
 };
@@ -285,13 +288,15 @@ TEST(VtkLegacyWriter, RoundTrip) {
     const auto xyz = r.big_endian<double>(3 * m.points.size());
     for (std::size_t i = 0; i < m.points.size(); ++i)
         for (int a = 0; a < 3; ++a)
-            ASSERT_EQ(xyz[3 * i + a], m.geometry.origin[a] + m.geometry.spacing[a] * m.points[i][a]);
+            ASSERT_EQ(xyz[3 * i + a],
+                      m.geometry.origin[a] + m.geometry.spacing[a] * m.points[i][a]);
     const auto nt = m.tets.size();
     EXPECT_EQ(r.line(), "CELLS " + std::to_string(nt) + " " + std::to_string(5 * nt));
     const auto cells = r.big_endian<int32_t>(5 * nt);
     for (std::size_t t = 0; t < nt; ++t) {
         ASSERT_EQ(cells[5 * t], 4);
-        for (int c = 0; c < 4; ++c) ASSERT_EQ(cells[5 * t + 1 + c], static_cast<int32_t>(m.tets[t][c]));
+        for (int c = 0; c < 4; ++c)
+            ASSERT_EQ(cells[5 * t + 1 + c], static_cast<int32_t>(m.tets[t][c]));
     }
     EXPECT_EQ(r.line(), "CELL_TYPES " + std::to_string(nt));
     for (int32_t type : r.big_endian<int32_t>(nt)) ASSERT_EQ(type, 10);
@@ -368,7 +373,8 @@ TEST(MeshWriters, ReadBackByVtk) {
         std::string path;
         uint64_t points = 0, cells = 0, tetras = 0, positive = 0, levels = 0;
         double values = 0, errors = 0, xmin = 0, ymax = 0;
-        lines >> path >> points >> cells >> tetras >> positive >> values >> levels >> errors >> xmin >> ymax;
+        lines >> path >> points >> cells >> tetras >> positive >> values >> levels >> errors >>
+            xmin >> ymax;
         SCOPED_TRACE(path);
         EXPECT_EQ(points, m.points.size());
         EXPECT_EQ(cells, m.tets.size());

@@ -37,7 +37,9 @@ CliRun run(const std::string& args) {
     return r;
 }
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
 
 }  // namespace
 
@@ -122,7 +124,7 @@ TEST(Cli, ExtractNeedsErrorOrFull) {
     EXPECT_EQ(r.code, 2);
     EXPECT_TRUE(contains(r.err, "--full")) << r.err;
     const CliRun mt = run("extract '" + tmp("sp_9x9x9_uint8.raw") + "' '" + tmp("x.vtu") +
-                       "' --error 1 --model mt");
+                          "' --error 1 --model mt");
     EXPECT_NE(mt.code, 0);
     EXPECT_TRUE(contains(mt.err, "not yet available")) << mt.err;
     EXPECT_FALSE(fs::exists(tmp("x.vtu")));
@@ -145,8 +147,9 @@ TEST(Cli, ExtractUniformFullAndRegion) {
     EXPECT_EQ(slurp(tmp("coarse.vtk")).rfind("# vtk DataFile", 0), 0u);
     EXPECT_LT(fs::file_size(tmp("coarse.vtk")), fs::file_size(tmp("full.vtu")) * 4);
 
-    const CliRun region = run("extract '" + in + "' '" + tmp("region.vtu") +
-                           "' --error 0 --box 4,4,4,12,12,12 --isovalue 128 --error-out inf --no-compress");
+    const CliRun region =
+        run("extract '" + in + "' '" + tmp("region.vtu") +
+            "' --error 0 --box 4,4,4,12,12,12 --isovalue 128 --error-out inf --no-compress");
     ASSERT_EQ(region.code, 0) << region.err;
     EXPECT_FALSE(contains(slurp(tmp("region.vtu")), "vtkZLibDataCompressor"));
 }
@@ -155,9 +158,9 @@ TEST(Cli, Demo) {
     const std::string dir = tmp("demo");
     const CliRun r = run("demo --out '" + dir + "' --size 9");
     ASSERT_EQ(r.code, 0) << r.err;
-    for (const char* f : {"marschner-lobb_9x9x9_uint8.raw", "multiscale_9x9x9_uint8.raw",
-                          "marschner-lobb_full.vtu", "multiscale_error5pct.vtu", "multiscale_iso.vtu",
-                          "marschner-lobb_box.vtu"})
+    for (const char* f :
+         {"marschner-lobb_9x9x9_uint8.raw", "multiscale_9x9x9_uint8.raw", "marschner-lobb_full.vtu",
+          "multiscale_error5pct.vtu", "multiscale_iso.vtu", "marschner-lobb_box.vtu"})
         EXPECT_TRUE(fs::exists(fs::path(dir) / f)) << f;
     EXPECT_TRUE(contains(r.out, "paraview")) << r.out;
 }

@@ -34,8 +34,10 @@ void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::str
         if (!f.empty() && f[0] == '.') f.erase(0, 1);
         if (f.empty())
             throw Error(ErrorCode::InvalidArgument,
-                        "'" + path + "': no file extension to choose a mesh format from "
-                        "(supported: " + joined_formats() + ")");
+                        "'" + path +
+                            "': no file extension to choose a mesh format from "
+                            "(supported: " +
+                            joined_formats() + ")");
     }
     if (f == "vtu") {
         VtuWriteOptions vo;

@@ -20,7 +20,7 @@ namespace {
 
 // Collects values as big-endian bytes.
 class BigEndianBuffer {
-public:
+  public:
     template <class T>
     void put(T v) {
         std::byte b[sizeof(T)];
@@ -34,7 +34,7 @@ public:
         bytes_.clear();
     }
 
-private:
+  private:
     std::vector<std::byte> bytes_;
 };
 
@@ -60,8 +60,10 @@ void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
 
     AtomicFile out(path);
     BigEndianBuffer buf;
-    out.write("# vtk DataFile Version 3.0\ntetlod tetrahedral mesh\nBINARY\n"
-              "DATASET UNSTRUCTURED_GRID\nPOINTS " + std::to_string(np) + " double\n");
+    out.write(
+        "# vtk DataFile Version 3.0\ntetlod tetrahedral mesh\nBINARY\n"
+        "DATASET UNSTRUCTURED_GRID\nPOINTS " +
+        std::to_string(np) + " double\n");
     for (const auto& p : mesh.points)
         for (double c : mesh.geometry.world(p)) buf.put(c);
     buf.flush_to(out);

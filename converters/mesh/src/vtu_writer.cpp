@@ -24,7 +24,7 @@ namespace tetlod {
 namespace {
 
 struct Array {
-    std::string xml_attributes;   // type, Name, NumberOfComponents
+    std::string xml_attributes;      // type, Name, NumberOfComponents
     std::vector<std::byte> encoded;  // header + payload, as it goes in the file
 };
 
@@ -81,12 +81,23 @@ std::string xml_escape(const std::string& s) {
     std::string r;
     for (char c : s) {
         switch (c) {
-            case '&': r += "&amp;"; break;
-            case '<': r += "&lt;"; break;
-            case '>': r += "&gt;"; break;
-            case '"': r += "&quot;"; break;
-            case '\'': r += "&apos;"; break;
-            default: r += c;
+            case '&':
+                r += "&amp;";
+                break;
+            case '<':
+                r += "&lt;";
+                break;
+            case '>':
+                r += "&gt;";
+                break;
+            case '"':
+                r += "&quot;";
+                break;
+            case '\'':
+                r += "&apos;";
+                break;
+            default:
+                r += c;
         }
     }
     return r;
@@ -98,8 +109,9 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptio
     detail::check_tet_mesh(mesh, path);
     if (options.compress && (options.block_size == 0 || options.block_size > (1u << 30) ||
                              options.compression_level < 0 || options.compression_level > 9))
-        throw Error(ErrorCode::InvalidArgument,
-                    "cannot write '" + path + "': block size must be in 1..2^30 and zlib level in 0..9");
+        throw Error(
+            ErrorCode::InvalidArgument,
+            "cannot write '" + path + "': block size must be in 1..2^30 and zlib level in 0..9");
 
     const std::size_t np = mesh.points.size();
     const std::size_t nt = mesh.tets.size();
@@ -127,14 +139,16 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptio
         cell_data.push_back(make("type=\"UInt8\" Name=\"level\"", bytes_of(mesh.level)));
     if (!mesh.error.empty())
         cell_data.push_back(make("type=\"Float32\" Name=\"error\"", bytes_of(mesh.error)));
-    points.push_back(make("type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"", bytes_of(coords)));
+    points.push_back(
+        make("type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"", bytes_of(coords)));
     cells.push_back(make("type=\"Int64\" Name=\"connectivity\"", bytes_of(connectivity)));
     cells.push_back(make("type=\"Int64\" Name=\"offsets\"", bytes_of(offsets)));
     cells.push_back(make("type=\"UInt8\" Name=\"types\"", bytes_of(types)));
 
     std::ostringstream xml;
     uint64_t offset = 0;
-    auto section = [&](const char* tag, const std::string& tag_attrs, const std::vector<Array>& arrays) {
+    auto section = [&](const char* tag, const std::string& tag_attrs,
+                       const std::vector<Array>& arrays) {
         xml << "      <" << tag << tag_attrs << ">\n";
         for (const auto& a : arrays) {
             xml << "        <DataArray " << a.xml_attributes << " format=\"appended\" offset=\""

@@ -77,8 +77,9 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
     const auto named = parse_raw_volume_name(path);
     if ((!options.dims || !options.type) && !named)
         throw Error(ErrorCode::InvalidArgument,
-                    "'" + path + "': raw volume needs its dims and type (--dims X,Y,Z --dtype T) "
-                    "or a file name like NAME_XxYxZ_DTYPE.raw");
+                    "'" + path +
+                        "': raw volume needs its dims and type (--dims X,Y,Z --dtype T) "
+                        "or a file name like NAME_XxYxZ_DTYPE.raw");
     const Dims dims = options.dims ? *options.dims : named->dims;
     const ValueType type = options.type ? *options.type : named->type;
 
@@ -93,12 +94,12 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
     // validate_dims bounds count() by 2^34 and the type by 8 bytes: no overflow.
     const uint64_t payload = static_cast<uint64_t>(dims.count()) * value_size(type);
     if (options.header_bytes > UINT64_MAX - payload || actual != options.header_bytes + payload) {
-        const auto dims_text = std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" +
-                               std::to_string(dims.z);
+        const auto dims_text =
+            std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" + std::to_string(dims.z);
         throw Error(ErrorCode::SizeMismatch,
                     "'" + path + "': expected " + std::to_string(options.header_bytes + payload) +
-                        " bytes (" + std::to_string(options.header_bytes) + " header + " + dims_text +
-                        " " + value_type_name(type) + " samples of " +
+                        " bytes (" + std::to_string(options.header_bytes) + " header + " +
+                        dims_text + " " + value_type_name(type) + " samples of " +
                         std::to_string(value_size(type)) + " bytes) but the file has " +
                         std::to_string(actual) + " bytes");
     }
@@ -135,8 +136,8 @@ void write_raw_volume(const Volume& volume, const std::string& path, Endian endi
     const std::size_t elem = value_size(volume.type);
     if (volume.data.size() != static_cast<std::size_t>(volume.count()) * elem)
         throw Error(ErrorCode::InvalidArgument,
-                    "cannot write '" + path + "': volume holds " + std::to_string(volume.data.size()) +
-                        " bytes, its dims and type need " +
+                    "cannot write '" + path + "': volume holds " +
+                        std::to_string(volume.data.size()) + " bytes, its dims and type need " +
                         std::to_string(static_cast<std::size_t>(volume.count()) * elem));
     AtomicFile out(path);
     if (!needs_swap(endian)) {

@@ -1,9 +1,9 @@
 #include "tetlod/converters/sample_volumes.hpp"
 
 #include <cmath>
-#include <type_traits>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 #include "tetlod/core/error.hpp"
 
@@ -87,9 +87,9 @@ Volume make_sample_volume(const std::string& name, Dims dims, ValueType type) {
     validate_dims(dims, what);
     for (int a = 0; a < 3; ++a)
         if (dims[a] < 2)
-            throw Error(ErrorCode::InvalidArgument,
-                        what + ": dimension " + std::to_string(a) + " is " +
-                            std::to_string(dims[a]) + " (must be at least 2)");
+            throw Error(ErrorCode::InvalidArgument, what + ": dimension " + std::to_string(a) +
+                                                        " is " + std::to_string(dims[a]) +
+                                                        " (must be at least 2)");
 
     Volume v = Volume::allocate(dims, type);
     // Coordinates as -1 + i * step would drift; computing each from its index

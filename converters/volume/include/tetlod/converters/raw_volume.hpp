@@ -30,6 +30,7 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
 
 /// Writes the samples (no header) in the given byte order, atomically (the target
 /// is replaced only once the whole file is on disk). Throws tetlod::Error(IoError).
-void write_raw_volume(const Volume& volume, const std::string& path, Endian endian = Endian::Little);
+void write_raw_volume(const Volume& volume, const std::string& path,
+                      Endian endian = Endian::Little);
 
 }  // namespace tetlod
