@@ -81,11 +81,13 @@ public:
             PendingTet p{spine_first(r.v, r.tag), 0};
             if (!ok(p)) pending_.push_back(ht::midpoint(p.v[0], p.v[1]));
         }
+        const auto t0 = std::chrono::steady_clock::now();
         while (!pending_.empty()) {
             const Pt c = pending_.back();
             pending_.pop_back();
             force(c);
         }
+        const auto t1 = std::chrono::steady_clock::now();
         // ~6 tets per vertex in HT meshes; reserving avoids regrowth copies.
         const std::size_t expect = 6 * mesh_.points.size() + 64;
         mesh_.tets.reserve(expect);
@@ -93,7 +95,10 @@ public:
         mesh_.error.reserve(expect);
         for (const auto& r : roots) emit(r);
         fill_values();
+        const auto t2 = std::chrono::steady_clock::now();
         if (stats) {
+            stats->refine_seconds = std::chrono::duration<double>(t1 - t0).count();
+            stats->emit_seconds = std::chrono::duration<double>(t2 - t1).count();
             stats->max_error = max_error_;
             stats->split_diamonds = split_count_;
             stats->visited_tets = visited_;

@@ -59,6 +59,8 @@ struct HtExtractStats {
     double max_error = 0.0;     // largest stored error bound among output tets
     uint64_t split_diamonds = 0;
     uint64_t visited_tets = 0;
+    double refine_seconds = 0;  // phase 1: computing the split set
+    double emit_seconds = 0;    // phase 2: writing the mesh
 };
 
 class HtModel {
