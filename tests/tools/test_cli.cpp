@@ -26,7 +26,9 @@ struct CliRun {
 
 // Runs the CLI through the shell with stdout and stderr captured apart.
 CliRun run(const std::string& args) {
-    const std::string out = tmp("stdout.txt"), err = tmp("stderr.txt");
+    // ctest runs tests in parallel processes: name the capture files per test.
+    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    const std::string out = tmp(test + ".stdout"), err = tmp(test + ".stderr");
     const std::string cmd =
         std::string("'") + TETLOD_CLI_PATH + "' " + args + " >'" + out + "' 2>'" + err + "'";
     const int status = std::system(cmd.c_str());
