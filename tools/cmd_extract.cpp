@@ -115,7 +115,7 @@ const CommandRegistration registration{Command{
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ExtractArgs>();
         sub.add_option("input", a->input, "Input volume file")->required();
-        sub.add_option("output", a->output, "Output mesh (.vtu or .vtk)")->required();
+        sub.add_option("output", a->output, "Output mesh (.vtu, .vtk, .msh Gmsh 4.1, .mesh Medit + .sol)")->required();
         add_volume_flags(sub, a->volume);
 
         const std::string lod =
@@ -151,7 +151,7 @@ const CommandRegistration registration{Command{
             ->group(model);
         sub.add_option("--format", a->format, "Mesh format (default: from the extension)")
             ->group(model)
-            ->check(CLI::IsMember({"vtu", "vtk"}));
+            ->check(CLI::IsMember({"vtu", "vtk", "msh", "msh-binary", "mesh"}));
         sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed")
             ->group(model);
         sub.footer(

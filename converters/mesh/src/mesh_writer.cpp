@@ -4,6 +4,8 @@
 #include <cctype>
 #include <filesystem>
 
+#include "tetlod/converters/gmsh_writer.hpp"
+#include "tetlod/converters/medit_writer.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/error.hpp"
 
@@ -24,7 +26,11 @@ std::string joined_formats() {
 
 }  // namespace
 
-std::vector<std::string> mesh_format_names() { return {"vtu", "vtk"}; }
+// "msh-binary" is the one name that is not an extension: .msh files are ASCII
+// unless it is asked for.
+std::vector<std::string> mesh_format_names() {
+    return {"vtu", "vtk", "msh", "msh-binary", "mesh"};
+}
 
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format,
                     const MeshWriteOptions& options) {
@@ -45,6 +51,10 @@ void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::str
         write_vtu(mesh, path, vo);
     } else if (f == "vtk") {
         write_vtk_legacy(mesh, path);
+    } else if (f == "msh" || f == "msh-binary") {
+        write_gmsh(mesh, path, f == "msh-binary");
+    } else if (f == "mesh") {
+        write_medit(mesh, path);
     } else {
         throw Error(ErrorCode::InvalidArgument, "'" + path + "': unknown mesh format '" + f +
                                                     "' (supported: " + joined_formats() + ")");

@@ -13,7 +13,9 @@ struct MeshWriteOptions {
     bool compress = true;
 };
 
-/// Formats write_tet_mesh accepts, as names that are also the file extensions.
+/// Formats write_tet_mesh accepts, as names that are also the file extensions
+/// (vtu, vtk, msh = Gmsh 4.1 ASCII, mesh = Medit + .sol), plus "msh-binary"
+/// (Gmsh 4.1 binary, only by name).
 std::vector<std::string> mesh_format_names();
 
 /// Writes `mesh` to `path` atomically. `format` is one of mesh_format_names();

@@ -1,0 +1,64 @@
+// Medit .mesh / .sol writer. Layout from the Medit documentation (P. Frey,
+// "MEDIT: an interactive mesh visualization software", INRIA RT-0253) and
+// libMeshb's keyword list: free-format ASCII keywords, each followed by a count
+// and that many records; "End" closes the file.
+#include "tetlod/converters/medit_writer.hpp"
+
+#include <cstdio>
+#include <filesystem>
+
+#include "mesh_check.hpp"
+#include "tetlod/core/atomic_file.hpp"
+
+namespace tetlod {
+
+namespace {
+
+void appendf(std::string& s, const char* fmt, double a, double b, double c) {
+    char buf[96];
+    const int n = std::snprintf(buf, sizeof buf, fmt, a, b, c);
+    s.append(buf, static_cast<std::size_t>(n));
+}
+
+}  // namespace
+
+std::string medit_sol_path(const std::string& mesh_path) {
+    return std::filesystem::path(mesh_path).replace_extension(".sol").string();
+}
+
+void write_medit(const TetMesh& mesh, const std::string& path) {
+    detail::check_tet_mesh(mesh, path);
+    std::string s;
+    s.reserve(mesh.points.size() * 64 + mesh.tets.size() * 40 + 256);
+    s += "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";
+    s += std::to_string(mesh.points.size()) + "\n";
+    for (const auto& p : mesh.points) {
+        const auto w = mesh.geometry.world(p);
+        appendf(s, "%.17g %.17g %.17g 0\n", w[0], w[1], w[2]);
+    }
+    s += "\nTetrahedra\n" + std::to_string(mesh.tets.size()) + "\n";
+    for (std::size_t i = 0; i < mesh.tets.size(); ++i) {
+        const auto& t = mesh.tets[i];
+        s += std::to_string(t[0] + 1ull) + ' ' + std::to_string(t[1] + 1ull) + ' ' +
+             std::to_string(t[2] + 1ull) + ' ' + std::to_string(t[3] + 1ull) + ' ' +
+             std::to_string(mesh.level.empty() ? 0 : int(mesh.level[i])) + '\n';
+    }
+    s += "\nEnd\n";
+
+    std::string sol;
+    sol.reserve(mesh.values.size() * 24 + 128);
+    sol += "MeshVersionFormatted 2\n\nDimension 3\n\nSolAtVertices\n";
+    sol += std::to_string(mesh.values.size()) + "\n1 1\n";  // one field, type 1 = scalar
+    char buf[40];
+    for (double v : mesh.values) {
+        const int n = std::snprintf(buf, sizeof buf, "%.17g\n", v);
+        sol.append(buf, static_cast<std::size_t>(n));
+    }
+    sol += "\nEnd\n";
+
+    // Write the .sol first: a reader that finds the .mesh finds its field too.
+    write_file_atomic(medit_sol_path(path), sol.data(), sol.size());
+    write_file_atomic(path, s.data(), s.size());
+}
+
+}  // namespace tetlod
