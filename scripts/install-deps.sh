@@ -12,7 +12,7 @@ PACKAGES=(
   libhdf5-dev hdf5-tools
   libopenmesh-dev
   clang libclang-rt-14-dev
-  python3 python3-numpy python3-vtk9 python3-meshio python3-h5py
+  python3 python3-numpy python3-vtk9 python3-meshio python3-h5py gmsh
 )
 
 missing=()

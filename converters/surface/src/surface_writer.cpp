@@ -54,6 +54,30 @@ void check(const TriangleMesh& s, const std::string& path) {
             if (v >= n) bad("a face refers to vertex " + std::to_string(v) + " of " + std::to_string(n));
 }
 
+// OpenMesh 9's ASCII STL has an empty line before each "endloop" and an unnamed
+// "solid ". Both are legal, but line-based readers (meshio 5) fail on the empty
+// lines, so we drop them and name the solid.
+std::string tidy_ascii_stl(const std::string& in) {
+    std::string out;
+    out.reserve(in.size());
+    std::size_t pos = 0;
+    bool first = true;
+    while (pos < in.size()) {
+        std::size_t nl = in.find('\n', pos);
+        if (nl == std::string::npos) nl = in.size();
+        std::string line = in.substr(pos, nl - pos);
+        pos = nl + 1;
+        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+        if (first && line.rfind("solid", 0) == 0 && line.find_first_not_of(" ", 5) == std::string::npos)
+            line = "solid tetlod";
+        if (line == "endsolid " || line == "endsolid") line = "endsolid tetlod";
+        first = false;
+        out += line;
+        out += '\n';
+    }
+    return out;
+}
+
 }  // namespace
 
 std::vector<std::string> surface_format_names() { return {"ply", "obj", "off", "stl"}; }
@@ -72,7 +96,9 @@ void write_surface(const TriangleMesh& s, const std::string& path, const std::st
     check(s, path);
 
     OmMesh m;
-    const bool normals = options.normals && !s.normals.empty() && f != "stl";
+    // OFF stays plain "OFF": the NOFF variant with normals is refused by common
+    // readers (meshio 5 among them), and OFF is chosen for compatibility.
+    const bool normals = options.normals && !s.normals.empty() && f != "stl" && f != "off";
     if (normals) m.request_vertex_normals();
     m.request_face_normals();
     std::vector<OmMesh::VertexHandle> vh;
@@ -125,7 +151,8 @@ void write_surface(const TriangleMesh& s, const std::string& path, const std::st
     std::ostringstream os(std::ios::out | std::ios::binary);
     if (!OpenMesh::IO::write_mesh(m, os, "." + f, opt, 9))
         throw Error(ErrorCode::IoError, "'" + path + "': OpenMesh could not write the " + f + " data");
-    const std::string bytes = os.str();
+    std::string bytes = os.str();
+    if (f == "stl" && !options.binary) bytes = tidy_ascii_stl(bytes);
     write_file_atomic(path, bytes.data(), bytes.size());
 }
 

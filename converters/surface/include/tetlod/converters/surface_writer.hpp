@@ -4,7 +4,8 @@
 //         (float), nx ny nz (float), and per face "error" (float: error bound of
 //         the source tet) and "surface" (int: index of the isovalue);
 //   .obj  Wavefront OBJ with vertex normals (vn);
-//   .off  Object File Format, NOFF (vertex normals);
+//   .off  Object File Format, plain OFF (no normals: NOFF is refused by common
+//         readers such as meshio);
 //   .stl  STL, binary (default) or ASCII, with facet normals.
 // Written through OpenMesh's IO (the only place in tetlod that includes it),
 // atomically (temporary file beside the target, then rename). OBJ/OFF/STL carry
