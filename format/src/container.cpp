@@ -120,10 +120,11 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
     const uint64_t header_checksum = r.u64();
     if (checksum64(std::span<const std::byte>(head, 56)) != header_checksum)
         return fail(ErrorCode::ChecksumMismatch, where + "header checksum mismatch");
-    if (h.version_major != kVersionMajor)
+    if (h.version_major < kOldestReadableMajor || h.version_major > kVersionMajor)
         return fail(ErrorCode::UnsupportedVersion,
                     where + "format version " + std::to_string(h.version_major) + "." +
                         std::to_string(h.version_minor) + " is not supported (this reader: " +
+                        std::to_string(kOldestReadableMajor) + ".x to " +
                         std::to_string(kVersionMajor) + ".x)");
     if (header_size != kHeaderSize || entry_size != kTableEntrySize)
         return fail(ErrorCode::CorruptData, where + "header or table entry size is not the one of version 1");

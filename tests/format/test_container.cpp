@@ -219,7 +219,7 @@ TEST(Robustness, HostileHeaders) {
     }
     {  // newer major version
         auto g = f;
-        store_le(g.data() + 8, 2, 2);
+        store_le(g.data() + 8, tlod::kVersionMajor + 1, 2);
         reseal_header(g);
         EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedVersion);
     }

@@ -21,8 +21,12 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
+#include <span>
 #include <type_traits>
 
+#include "ht_codec_entropy.hpp"
+#include "ht_geometry.hpp"
 #include "tetlod/format/byte_io.hpp"
 
 namespace tetlod {
@@ -284,14 +288,362 @@ bool decode_error_chunk(const Geometry& G, const T* v, std::vector<float>& e, co
     return ok;
 }
 
+// ---- residual coding 2 (spec §7.3-§7.5, §8.3): class-ordered chunks, adaptive range coder ----
+
+constexpr uint8_t kPredictorNeighbours = 2;
+constexpr uint8_t kResidualRangeCoder = 2;
+/// Spec §7.5: a coded chunk holds at most this many points per stored byte.
+constexpr uint64_t kMaxPointsPerByte = 8192;
+
+/// Activity bucket of spec §7.5: bit length, compressed above 8.
+inline int activity_bucket(uint64_t a) {
+    const int bl = rc::bit_length(a);
+    return bl <= 8 ? bl : std::min(15, 8 + (bl - 6) / 3);
+}
+
+/// Lattice of a chunk's box at spacing h: per point a saturated magnitude + 1
+/// (0 = not coded yet in this chunk), for the neighbour contexts.
+struct ChunkLattice {
+    int64_t h = 1, x0 = 0, y0 = 0, z0 = 0;
+    int64_t nx = 0, ny = 0, nz = 0;
+    std::vector<uint32_t> mag;
+    ChunkLattice(int t, const std::array<int64_t, 6>& b) {
+        h = int64_t{1} << t;
+        auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
+        x0 = up(b[0]);
+        y0 = up(b[1]);
+        z0 = up(b[2]);
+        nx = b[3] >= x0 ? (b[3] - x0) / h + 1 : 0;
+        ny = b[4] >= y0 ? (b[4] - y0) / h + 1 : 0;
+        nz = b[5] >= z0 ? (b[5] - z0) / h + 1 : 0;
+        mag.assign(std::size_t(nx * ny * nz), 0);
+    }
+    int64_t slot(int64_t x, int64_t y, int64_t z) const {
+        const int64_t i = (x - x0) / h, j = (y - y0) / h, l = (z - z0) / h;
+        if (x < x0 || y < y0 || z < z0 || i >= nx || j >= ny || l >= nz) return -1;
+        return (l * ny + j) * nx + i;
+    }
+    void set(int64_t x, int64_t y, int64_t z, uint64_t m) {
+        mag[std::size_t(slot(x, y, z))] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1);
+    }
+    /// Spec §7.5: mean magnitude of the already coded lattice neighbours among
+    /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
+    uint64_t neighbour_mean(int64_t x, int64_t y, int64_t z) const {
+        static constexpr int off[9][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1},
+                                          {0, 0, 1},  {-2, 0, 0}, {0, -2, 0}, {0, 0, -2}};
+        uint64_t sum = 0, n = 0;
+        for (const auto& o : off) {
+            const int64_t s = slot(x + o[0] * h, y + o[1] * h, z + o[2] * h);
+            if (s < 0) continue;
+            const uint32_t v = mag[std::size_t(s)];
+            if (v) {
+                sum += v - 1;
+                ++n;
+            }
+        }
+        return n ? sum / n : 0;
+    }
+};
+
+/// Calls f(x, y, z, cls) for the chunk's points in coding order 2: class 0
+/// (cube centres), class 1 (face centres), class 2 (edge midpoints), each z
+/// outer, x inner; the corner cycle t = k is one pass with cls = 3.
+template <class F>
+void for_each_point_v2(const Geometry& G, int t, const std::array<int64_t, 6>& b, F&& f) {
+    if (t == G.k) {
+        G.for_each_point(t, b, [&](int64_t x, int64_t y, int64_t z) { f(x, y, z, 3); });
+        return;
+    }
+    const int64_t h = int64_t{1} << t;
+    auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
+    for (int cls = 0; cls < 3; ++cls) {
+        const int want_odd = 3 - cls;
+        for (int64_t z = up(b[2]); z <= b[5]; z += h) {
+            const int oz = (z & h) != 0;
+            for (int64_t y = up(b[1]); y <= b[4]; y += h) {
+                const int oy = (y & h) != 0;
+                const int64_t xs = up(b[0]);
+                // x parity fixed by the class: odd needed iff want_odd - oz - oy == 1.
+                const int need = want_odd - oz - oy;
+                if (need < 0 || need > 1) continue;
+                int64_t x = xs;
+                if (((x & h) != 0) != (need == 1)) x += h;
+                for (; x <= b[3]; x += 2 * h) f(x, y, z, cls);
+            }
+        }
+    }
+}
+
+struct Prediction {
+    int64_t p = 0;
+    uint64_t spread = 0;
+};
+
+/// Spec §7.3 (Predictor = 2).
+template <class T>
+Prediction predict_v2(const Geometry& G, const T* v, int t, int cls, int64_t x, int64_t y, int64_t z,
+                      const std::array<int64_t, 6>& cb) {
+    Prediction r;
+    if (cls == 3) return r;
+    const int64_t h = int64_t{1} << t;
+    const int64_t c[3] = {x, y, z};
+    int64_t mn = std::numeric_limits<int64_t>::max(), mx = std::numeric_limits<int64_t>::min();
+    auto val = [&](int64_t a, int64_t b2, int64_t d) {
+        const int64_t w = Dom<T>::get(v[G.index(a, b2, d)]);
+        mn = std::min(mn, w);
+        mx = std::max(mx, w);
+        return w;
+    };
+    auto in_chunk = [&](const int64_t q[3]) {
+        for (int a = 0; a < 3; ++a)
+            if (q[a] < cb[a] || q[a] > cb[3 + a]) return false;
+        return true;
+    };
+    // Coarse neighbours (as predictor 1).
+    int64_t lo[3], hi[3];
+    int shift = 0;
+    bool all_in = true;
+    for (int a = 0; a < 3; ++a) {
+        if ((c[a] & h) != 0) {
+            lo[a] = c[a] - h;
+            if (c[a] + h <= G.box_max[a]) {
+                hi[a] = c[a] + h;
+                ++shift;
+            } else {
+                hi[a] = lo[a];
+                all_in = false;
+            }
+        } else {
+            lo[a] = hi[a] = c[a];
+        }
+    }
+    i128 coarse = 0;
+    for (int64_t zz = lo[2];; zz = hi[2]) {
+        for (int64_t yy = lo[1];; yy = hi[1]) {
+            coarse += val(lo[0], yy, zz);
+            if (hi[0] != lo[0]) coarse += val(hi[0], yy, zz);
+            if (yy == hi[1]) break;
+        }
+        if (zz == hi[2]) break;
+    }
+    // Same-cycle neighbours at distance h along the even axes, when all are in the chunk.
+    i128 fine = 0;
+    bool fine_ok = all_in && cls > 0;
+    for (int a = 0; a < 3 && fine_ok; ++a) {
+        if ((c[a] & h) != 0) continue;
+        for (int s = -1; s <= 1; s += 2) {
+            int64_t q[3] = {c[0], c[1], c[2]};
+            q[a] += s * h;
+            if (!in_chunk(q)) {
+                fine_ok = false;
+                break;
+            }
+        }
+    }
+    if (fine_ok) {
+        for (int a = 0; a < 3; ++a) {
+            if ((c[a] & h) != 0) continue;
+            for (int s = -1; s <= 1; s += 2) {
+                int64_t q[3] = {c[0], c[1], c[2]};
+                q[a] += s * h;
+                fine += val(q[0], q[1], q[2]);
+            }
+        }
+        if (cls == 1)  // 4 face corners + 2 cube centres: (sum4 + 2 sum2) / 8
+            r.p = int64_t((coarse + 2 * fine) >> 3);
+        else  // edge: 2 ends + 4 face centres: (2 (A + B) + sum4) / 8
+            r.p = int64_t((2 * coarse + fine) >> 3);
+    } else {
+        r.p = int64_t(coarse >> shift);
+    }
+    r.spread = uint64_t(mx) - uint64_t(mn);
+    return r;
+}
+
+struct FieldModels {
+    rc::IntModel m[4][16];
+};
+struct ErrorModels {
+    rc::Bit inf[4][2];  // class 3 (corners) never used: corners are not diamonds
+    rc::IntModel m[4][2][6];
+};
+
+template <class T>
+std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, const HtChunk& c) {
+    using D = Dom<T>;
+    constexpr int W = D::W;
+    std::vector<std::byte> out;
+    if (c.points == 0) return out;
+    auto models = std::make_unique<FieldModels>();
+    ChunkLattice lat(c.cycle, c.box);
+    rc::Encoder enc(out);
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        const Prediction pr = predict_v2(G, v, c.cycle, cls, x, y, z, c.box);
+        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(x, y, z);
+        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[G.index(x, y, z)])) - uint64_t(pr.p)));
+        const bool neg = r < 0;
+        const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
+        rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, W);
+        lat.set(x, y, z, mag);
+    });
+    enc.finish();
+    return out;
+}
+
+/// False on a malformed stream.
+template <class T>
+bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<const std::byte> in) {
+    using D = Dom<T>;
+    constexpr int W = D::W;
+    if (c.points == 0) return in.empty();
+    auto models = std::make_unique<FieldModels>();
+    ChunkLattice lat(c.cycle, c.box);
+    rc::Decoder dec(in.data(), in.size());
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        const Prediction pr = predict_v2(G, v, c.cycle, cls, x, y, z, c.box);
+        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(x, y, z);
+        uint64_t mag;
+        bool neg;
+        rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, W);
+        const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
+        v[G.index(x, y, z)] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
+        lat.set(x, y, z, mag);
+    });
+    return !dec.bad_end();
+}
+
+/// Spec §8.3: may the diamond centred at c have a tet outside B (then it may be +inf)?
+inline int touches_far_face(const Geometry& G, int t, int64_t x, int64_t y, int64_t z) {
+    const int64_t h = int64_t{1} << t;
+    return (x + h > G.box_max[0] || y + h > G.box_max[1] || z + h > G.box_max[2]) ? 1 : 0;
+}
+
+/// Spec §8.3: the lattice lower bound of a diamond's error. Over the tets of the
+/// diamond with all four vertices in B, and over their edges (a, b) whose
+/// midpoint p lies on the lattice of spacing h = 2^t, the largest
+/// |f(p) - (f(a) + f(b)) / 2| (L_T(p) at an edge midpoint), counting only
+/// points already decoded: coarser cycles, or cycle t inside the chunk's box.
+/// At cycle 0 every grid point of the tets is such a midpoint or a vertex, so
+/// the bound is the exact diamond error unless a point lies in another brick.
+template <class T>
+uint32_t lattice_bound_code(const Geometry& G, const T* v, int t, int64_t x, int64_t y, int64_t z,
+                            const std::array<int64_t, 6>& cb, int m) {
+    const ht::Pt c{int32_t(x), int32_t(y), int32_t(z)};
+    const ht::DiamondInfo di = ht::classify_centre(c, G.k);
+    ht::Tet tets[8];
+    const int n = ht::diamond_tets(c, di, int32_t(int64_t{1} << G.k), tets);
+    const int64_t h = int64_t{1} << t;
+    auto known = [&](const ht::Pt& p) {
+        bool coarse = true;
+        for (int a = 0; a < 3; ++a) {
+            if (p[a] < 0 || p[a] > G.box_max[a]) return false;
+            if (p[a] & h) coarse = false;
+        }
+        if (coarse) return true;
+        for (int a = 0; a < 3; ++a)
+            if (p[a] < cb[a] || p[a] > cb[3 + a]) return false;
+        return true;
+    };
+    static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    double best = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const ht::Tet& T4 = tets[i];
+        bool inside = true;
+        for (const auto& p : T4)
+            for (int a = 0; a < 3; ++a) inside = inside && p[a] >= 0 && p[a] <= G.box_max[a];
+        if (!inside) continue;
+        for (const auto& e : kEdges) {
+            const ht::Pt& a = T4[e[0]];
+            const ht::Pt& b = T4[e[1]];
+            ht::Pt p;
+            bool lattice = true;
+            for (int q = 0; q < 3; ++q) {
+                const int64_t s2 = int64_t(a[q]) + b[q];
+                if ((s2 & (2 * h - 1)) != 0) lattice = false;
+                p[q] = int32_t(s2 / 2);
+            }
+            if (!lattice || !known(p) || !known(a) || !known(b)) continue;
+            const double fa = static_cast<double>(v[G.index(a[0], a[1], a[2])]);
+            const double fb = static_cast<double>(v[G.index(b[0], b[1], b[2])]);
+            const double fp = static_cast<double>(v[G.index(p[0], p[1], p[2])]);
+            const double d = std::fabs(fp - 0.5 * (fa + fb));
+            if (!(d <= best)) best = d;  // NaN propagates
+        }
+    }
+    return quantize_error(static_cast<float>(best), m);
+}
+
+template <class T>
+std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, const std::vector<float>& e,
+                                             const HtChunk& c, int m) {
+    std::vector<std::byte> out;
+    if (c.diamonds == 0) return out;
+    auto models = std::make_unique<ErrorModels>();
+    ChunkLattice lat(c.cycle, c.box);
+    rc::Encoder enc(out);
+    const uint32_t qmax = max_error_code(m);
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        const int far = touches_far_face(G, c.cycle, x, y, z);
+        const uint32_t q = quantize_error(e[G.index(x, y, z)], m);
+        enc.encode(models->inf[cls][far], q == qmax);
+        if (q == qmax) {
+            lat.set(x, y, z, 0);
+            return;
+        }
+        const uint32_t lb = lattice_bound_code(G, v, c.cycle, x, y, z, c.box, m);
+        const int64_t delta = int64_t(q) - int64_t(lb);
+        const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(x, y, z)));
+        rc::encode_int(enc, models->m[cls][lb != 0][nb], mag, delta < 0, 16);
+        lat.set(x, y, z, mag);
+    });
+    enc.finish();
+    return out;
+}
+
+/// False on a malformed stream or a code out of range.
+template <class T>
+bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e, const HtChunk& c, int m,
+                           std::span<const std::byte> in) {
+    if (c.diamonds == 0) return in.empty();
+    auto models = std::make_unique<ErrorModels>();
+    ChunkLattice lat(c.cycle, c.box);
+    rc::Decoder dec(in.data(), in.size());
+    const uint32_t qmax = max_error_code(m);
+    bool ok = true;
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        const int far = touches_far_face(G, c.cycle, x, y, z);
+        float& out = e[G.index(x, y, z)];
+        if (dec.decode(models->inf[cls][far])) {
+            out = std::numeric_limits<float>::infinity();
+            lat.set(x, y, z, 0);
+            return;
+        }
+        const uint32_t lb = lattice_bound_code(G, v, c.cycle, x, y, z, c.box, m);
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(x, y, z)));
+        uint64_t mag;
+        bool neg;
+        rc::decode_int(dec, models->m[cls][lb != 0][nb], mag, neg, 16);
+        const int64_t q = int64_t(lb) + (neg ? -int64_t(mag) : int64_t(mag));
+        if (q < 0 || q >= int64_t(qmax) || (neg && mag == 0)) {
+            ok = false;
+            out = std::numeric_limits<float>::infinity();
+        } else {
+            out = dequantize_error(uint16_t(q), m);
+        }
+        lat.set(x, y, z, mag);
+    });
+    return ok && !dec.bad_end();
+}
+
 std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
     std::vector<std::byte> h;
     tlod::put_u8(h, uint8_t(d.k));
     tlod::put_u8(h, d.padded ? 1 : 0);
     tlod::put_u8(h, uint8_t(g));
     tlod::put_u8(h, uint8_t(m));
-    tlod::put_u8(h, kPredictorCoarseMean);
-    tlod::put_u8(h, kResidualZigzagPlanes);
+    tlod::put_u8(h, kPredictorNeighbours);
+    tlod::put_u8(h, kResidualRangeCoder);
     tlod::put_u16(h, 0);
     for (int a = 0; a < 3; ++a) tlod::put_u32(h, uint32_t(d.box_max[a]));
     tlod::put_u32(h, 0);
@@ -360,23 +712,23 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
         tbb::parallel_for(s, e, [&](std::size_t i) {
             auto raw = dispatch_value_type(f.type, [&](auto tv) {
                 using T = decltype(tv);
-                return encode_field_chunk<T>(G, f.as<T>(), chunks[i]);
+                return encode_field_chunk_v2<T>(G, f.as<T>(), chunks[i]);
             });
             fraw[i] = raw.size();
-            fs[i] = tlod::zstd_compress(raw, o.zstd_level);
+            fs[i] = std::move(raw);
             auto er = dispatch_value_type(f.type, [&](auto tv) {
                 using T = decltype(tv);
-                return encode_error_chunk<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m);
+                return encode_error_chunk_v2<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m);
             });
             eraw[i] = er.size();
-            es[i] = tlod::zstd_compress(er, o.zstd_level);
+            es[i] = std::move(er);
         });
         if (o.progress) o.progress(e, chunks.size());
     }
     for (std::size_t i = 0; i < chunks.size(); ++i) {
-        writer.add_stored(tlod::kSectionHtField, tlod::kSectionCritical | tlod::kSectionZstd,
+        writer.add_stored(tlod::kSectionHtField, tlod::kSectionCritical,
                           uint32_t(chunks[i].cycle), chunks[i].brick, std::move(fs[i]), fraw[i]);
-        writer.add_stored(tlod::kSectionHtErrors, tlod::kSectionCritical | tlod::kSectionZstd,
+        writer.add_stored(tlod::kSectionHtErrors, tlod::kSectionCritical,
                           uint32_t(chunks[i].cycle), chunks[i].brick, std::move(es[i]), eraw[i]);
     }
 }
@@ -425,8 +777,10 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     const uint32_t res1 = b.u32();
     if (flags & ~1u) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved flag bits set");
     if (res0 || res1) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved fields not zero");
-    if (predictor != kPredictorCoarseMean || coding != kResidualZigzagPlanes)
+    if (!(predictor == kPredictorCoarseMean && coding == kResidualZigzagPlanes) &&
+        !(predictor == kPredictorNeighbours && coding == kResidualRangeCoder))
         return fail(ErrorCode::UnsupportedFeature, where + "HT_HEADER: unknown predictor or residual coding");
+    L.residual_coding = coding;
     if (L.brick_log2 < 1 || L.brick_log2 > 16 || L.error_mantissa_bits > 7)
         return fail(ErrorCode::CorruptData, where + "HT_HEADER: brick size or error precision out of range");
     const Dims& dims = L.metadata.dims;
@@ -472,9 +826,26 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
                                                     ": HT chunks out of order (expected cycle " +
                                                     std::to_string(c.cycle) + " brick " +
                                                     std::to_string(c.brick) + ")");
-        if (fs.raw_size != c.points * W || es.raw_size != c.diamonds * 2)
-            return fail(ErrorCode::CorruptData, where + "section " + std::to_string(c.field_section) +
-                                                    ": raw size does not match the chunk's point count");
+        if (L.residual_coding == kResidualZigzagPlanes) {
+            if (fs.raw_size != c.points * W || es.raw_size != c.diamonds * 2)
+                return fail(ErrorCode::CorruptData, where + "section " + std::to_string(c.field_section) +
+                                                        ": raw size does not match the chunk's point count");
+            continue;
+        }
+        // Coding 2 (spec §7.5): stored range-coder streams, never zstd; the
+        // point count is bounded by the stream length before anything is allocated.
+        for (const auto& [si, count] : {std::pair{c.field_section, c.points}, std::pair{c.error_section, c.diamonds}}) {
+            const auto& s = secs[si];
+            const std::string sec = where + "section " + std::to_string(si) + ": ";
+            if (s.flags & tlod::kSectionZstd)
+                return fail(ErrorCode::CorruptData, sec + "range-coded HT chunks must not be zstd-compressed");
+            if ((count == 0) != (s.raw_size == 0) || (count > 0 && s.raw_size < 5))
+                return fail(ErrorCode::CorruptData, sec + "coded size " + std::to_string(s.raw_size) +
+                                                        " impossible for " + std::to_string(count) + " values");
+            if (count > kMaxPointsPerByte * s.raw_size)
+                return fail(ErrorCode::CorruptData, sec + std::to_string(count) + " values cannot fit in " +
+                                                        std::to_string(s.raw_size) + " coded bytes");
+        }
     }
     return L;
 }
@@ -558,10 +929,20 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
                                                         raw.failure().message);
                 return;
             }
-            dispatch_value_type(field.type, [&](auto tv) {
+            const bool field_ok = dispatch_value_type(field.type, [&](auto tv) {
                 using T = decltype(tv);
-                decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
+                if (L.residual_coding == kResidualZigzagPlanes) {
+                    decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
+                    return true;
+                }
+                return decode_field_chunk_v2<T>(G, field.as<T>(), c, *raw);
             });
+            if (!field_ok) {
+                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
+                                                            std::to_string(c.field_section) +
+                                                            ": malformed range-coded stream");
+                return;
+            }
             if (!req.errors) return;
             auto er = unpack(est[j], r.sections()[c.error_section]);
             if (!er) {
@@ -572,12 +953,14 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
             }
             const bool codes_ok = dispatch_value_type(field.type, [&](auto tv) {
                 using T = decltype(tv);
-                return decode_error_chunk<T>(G, field.as<T>(), out.errors, c, m, er->data());
+                if (L.residual_coding == kResidualZigzagPlanes)
+                    return decode_error_chunk<T>(G, field.as<T>(), out.errors, c, m, er->data());
+                return decode_error_chunk_v2<T>(G, field.as<T>(), out.errors, c, m, *er);
             });
             if (!codes_ok)
                 fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
                                                             std::to_string(c.error_section) +
-                                                            ": error code out of range");
+                                                            ": error code out of range or malformed stream");
         });
         for (const Failure& f : fails)
             if (f.code != ErrorCode::Ok) return f;

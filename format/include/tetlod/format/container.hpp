@@ -18,9 +18,14 @@ namespace tetlod::tlod {
 // ---- versions (one named constant per bump; see the spec's "Version changes") ----
 inline constexpr uint16_t kVersion1_0_Major = 1;
 inline constexpr uint16_t kVersion1_0_Minor = 0;
-inline constexpr uint16_t kVersionMajor = kVersion1_0_Major;  // what this library writes
-inline constexpr uint16_t kVersionMinor = kVersion1_0_Minor;
-/// "tlod-format 1.0": for --version output.
+/// 2.0: HT residual coding 2 (adaptive binary range coder, class-ordered chunks).
+inline constexpr uint16_t kVersion2_0_Major = 2;
+inline constexpr uint16_t kVersion2_0_Minor = 0;
+inline constexpr uint16_t kVersionMajor = kVersion2_0_Major;  // what this library writes
+inline constexpr uint16_t kVersionMinor = kVersion2_0_Minor;
+/// Oldest major version this library still reads (1.x files decode unchanged).
+inline constexpr uint16_t kOldestReadableMajor = kVersion1_0_Major;
+/// "tlod-format 2.0": for --version output.
 const char* format_version_string();
 
 inline constexpr unsigned char kMagic[8] = {0x89, 'T', 'L', 'O', 'D', 0x0D, 0x0A, 0x1A};

@@ -62,6 +62,9 @@ struct HtLayout {
     HtDomain domain;
     int brick_log2 = 0;
     int error_mantissa_bits = 0;
+    /// HT_HEADER Residual_Coding: 1 = zigzag byte planes + zstd (format 1.x),
+    /// 2 = class-ordered range coding (format 2.x).
+    int residual_coding = 2;
     std::vector<HtChunk> chunks;  // file order: cycle k first, then k-1, ..., 0
 };
 Expected<HtLayout> read_ht_layout(tlod::ContainerReader& reader);

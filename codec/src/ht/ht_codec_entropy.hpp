@@ -1,0 +1,190 @@
+#pragma once
+// Adaptive binary range coder of the .tlod format 2 (spec/tlod-format.md §7.4).
+//
+// A carry-propagating range coder over 32-bit ranges in the style of
+// G. N. N. Martin, "Range encoding: an algorithm for removing redundancy from a
+// digitised message" (1979), with binary adaptive probabilities as popularised
+// by LZMA; written from the spec's pseudocode. Probabilities are 16-bit with a
+// per-context adaptation rate that starts fast (shift 1) and settles at shift
+// 6, so short sections (one brick of one cycle) learn quickly.
+//
+// The decoder is safe on untrusted input: reads past the end yield zero bytes
+// and set `overrun()`, which callers turn into CorruptData.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace tetlod::rc {
+
+/// One adaptive binary context: p = P(bit = 0) in 1/65536, n = updates so far (capped).
+struct Bit {
+    uint16_t p = 32768;
+    uint8_t n = 0;
+    void update(int bit) {
+        const int shift = n < 5 ? n + 1 : 6;
+        if (n < 5) ++n;
+        if (bit) p = uint16_t(p - (p >> shift));
+        else p = uint16_t(p + ((65536u - p) >> shift));
+    }
+};
+
+class Encoder {
+public:
+    explicit Encoder(std::vector<std::byte>& out) : out_(out) {}
+    void encode(Bit& b, int bit) {
+        const uint32_t bound = (range_ >> 16) * b.p;
+        if (!bit) {
+            range_ = bound;
+        } else {
+            low_ += bound;
+            range_ -= bound;
+        }
+        b.update(bit);
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            shift_low();
+        }
+    }
+    /// A bit of probability exactly 1/2, no context (spec: "direct bit").
+    void encode_direct(int bit) {
+        range_ >>= 1;
+        if (bit) low_ += range_;
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            shift_low();
+        }
+    }
+    void finish() {
+        for (int i = 0; i < 5; ++i) shift_low();
+    }
+
+private:
+    void shift_low() {
+        if (uint32_t(low_) < 0xFF000000u || (low_ >> 32) != 0) {
+            const uint8_t carry = uint8_t(low_ >> 32);
+            uint8_t temp = cache_;
+            do {
+                out_.push_back(std::byte(uint8_t(temp + carry)));
+                temp = 0xFF;
+            } while (--pending_ != 0);
+            cache_ = uint8_t(low_ >> 24);
+        }
+        ++pending_;
+        low_ = (low_ & 0x00FFFFFFu) << 8;
+    }
+    std::vector<std::byte>& out_;
+    uint64_t low_ = 0;
+    uint32_t range_ = 0xFFFFFFFFu;
+    uint8_t cache_ = 0;
+    uint64_t pending_ = 1;
+};
+
+class Decoder {
+public:
+    Decoder(const std::byte* data, std::size_t size) : p_(data), end_(data + size) {
+        if (next() != 0) overrun_ = true;  // the first byte is always 0 (spec §7.4)
+        for (int i = 0; i < 4; ++i) code_ = (code_ << 8) | next();
+    }
+    int decode(Bit& b) {
+        const uint32_t bound = (range_ >> 16) * b.p;
+        int bit;
+        if (code_ < bound) {
+            range_ = bound;
+            bit = 0;
+        } else {
+            code_ -= bound;
+            range_ -= bound;
+            bit = 1;
+        }
+        b.update(bit);
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            code_ = (code_ << 8) | next();
+        }
+        return bit;
+    }
+    int decode_direct() {
+        range_ >>= 1;
+        int bit = 0;
+        if (code_ >= range_) {
+            code_ -= range_;
+            bit = 1;
+        }
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            code_ = (code_ << 8) | next();
+        }
+        return bit;
+    }
+    /// True when the stream ended early or is malformed; also when not all
+    /// bytes were consumed (call after the last symbol).
+    bool bad_end() const { return overrun_ || p_ != end_; }
+    bool overrun() const { return overrun_; }
+
+private:
+    uint32_t next() {
+        if (p_ == end_) {
+            overrun_ = true;
+            return 0;
+        }
+        return uint32_t(std::to_integer<uint8_t>(*p_++));
+    }
+    const std::byte* p_;
+    const std::byte* end_;
+    uint32_t code_ = 0;
+    uint32_t range_ = 0xFFFFFFFFu;
+    bool overrun_ = false;
+};
+
+/// Binarization of a signed integer (spec §7.4 "integer model"): zero flag,
+/// sign, bit length by unary, then the bits below the leading one (the top
+/// two with contexts, the rest direct). Values up to 64 bits.
+struct IntModel {
+    Bit zero, sign;
+    Bit len[64];
+    Bit mant[64][2];
+};
+
+/// Bit length of v (0 for 0).
+inline int bit_length(uint64_t v) { return v ? 64 - __builtin_clzll(v) : 0; }
+
+/// mag: |value| (1 .. 2^64-1 or 0); neg: sign. maxlen: the largest possible length.
+inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
+    e.encode(m.zero, mag == 0);
+    if (mag == 0) return;
+    e.encode(m.sign, neg);
+    const int n = bit_length(mag);
+    for (int i = 1; i < maxlen; ++i) {  // unary: 1 while n > i
+        const int more = n > i;
+        e.encode(m.len[i], more);
+        if (!more) break;
+    }
+    for (int j = n - 2; j >= 0; --j) {
+        const int bit = int((mag >> j) & 1);
+        const int pos = n - 2 - j;  // 0 = just below the leading one
+        if (pos < 2) e.encode(m.mant[n - 1][pos], bit);
+        else e.encode_direct(bit);
+    }
+}
+
+/// Inverse of encode_int; returns false (value meaningless) when the decoded
+/// length exceeds maxlen (cannot happen: the unary code stops at maxlen).
+inline void decode_int(Decoder& d, IntModel& m, uint64_t& mag, bool& neg, int maxlen) {
+    if (d.decode(m.zero)) {
+        mag = 0;
+        neg = false;
+        return;
+    }
+    neg = d.decode(m.sign) != 0;
+    int n = 1;
+    while (n < maxlen && d.decode(m.len[n])) ++n;
+    uint64_t v = 1;
+    for (int j = n - 2; j >= 0; --j) {
+        const int pos = n - 2 - j;
+        const int bit = pos < 2 ? d.decode(m.mant[n - 1][pos]) : d.decode_direct();
+        v = (v << 1) | uint64_t(bit);
+    }
+    mag = v;
+}
+
+}  // namespace tetlod::rc
