@@ -2,10 +2,12 @@
 //
 // Each level of the HT tiles the cube, so one level costs about one visit per
 // grid point. Two evaluators, chosen per diamond:
-//  - small diamonds (h <= kTemplateMaxH) fully inside the data box use a
-//    precomputed template: the grid points of the diamond with their integer
-//    barycentric weights, as linear-index offsets. No per-row set-up, which would
-//    dominate at the fine levels where a tet holds only a handful of points;
+//  - diamonds fully inside the data box use a template precomputed per level
+//    and shape: for the smallest (h <= 4) the grid points of the diamond with
+//    their integer barycentric weights, as linear-index offsets (no per-row
+//    set-up, which would dominate when a tet holds a handful of points); up to
+//    h = 16 the row spans of each tet with the barycentric numerators at each
+//    row's start (no divisions);
 //  - larger or boundary diamonds scan each tet row by row: the integer
 //    barycentric numerators D_i are affine along a row, so the x range inside the
 //    closed tet follows from four divisions, and the interpolant from adds.
@@ -30,7 +32,8 @@
 namespace tetlod::ht {
 namespace {
 
-constexpr int32_t kTemplateMaxH = 8;
+constexpr int32_t kTemplateMaxH = 16;      // span templates up to here
+constexpr int32_t kPointTemplateMaxH = 4;  // point templates up to here (measured best)
 
 int64_t floor_div(int64_t a, int64_t b) {  // b > 0
     int64_t q = a / b;
@@ -81,7 +84,10 @@ Barycentric barycentric_of(Tet t, V* f) {
 /// Accumulators: double where every term is exact (|values| * |D| < 2^49), else
 /// 128-bit integers (32-bit integer data, very deep hierarchies).
 template <class Acc>
-Acc abs_value(Acc v) { return v < 0 ? -v : v; }
+Acc abs_value(Acc v) {
+    if constexpr (std::is_same_v<Acc, double>) return std::abs(v);  // branch-free
+    else return v < 0 ? -v : v;
+}
 
 /// Converts a non-negative accumulator to double, rounding up.
 template <class Acc>
@@ -202,6 +208,95 @@ public:
         return to_double_up(worst) / double(tpl.D);
     }
 
+    /// Span template: per tet of one diamond shape, the row spans of its grid
+    /// points with the barycentric numerators at each row's x = 0 (relative to the
+    /// centre). Evaluation then costs a few multiply-adds per row and one
+    /// multiply-subtract per point, with no divisions.
+    struct SpanTemplate {
+        struct Span {
+            int64_t row;     // linear offset of (c.x, y, z) from the centre
+            int32_t x0, x1;  // x range relative to the centre, inclusive
+            int64_t b[4];    // D_i at relative x = 0
+        };
+        struct TetSpans {
+            int64_t v[4];  // vertex offsets from the centre
+            int64_t a[4];  // d D_i / dx
+            std::size_t first = 0, count = 0;
+        };
+        std::vector<TetSpans> tets;
+        std::vector<Span> spans;
+        Acc D = 1;
+    };
+
+    SpanTemplate make_span_template(const Pt& c, const DiamondInfo& d) const {
+        SpanTemplate st;
+        Tet tets[8];
+        const int n = diamond_tets(c, d, dom_.L, tets);
+        for (int ti = 0; ti < n; ++ti) {
+            Tet t = tets[ti];
+            double dummy[4] = {0, 0, 0, 0};
+            const Barycentric b = barycentric_of(t, dummy);
+            if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+            st.D = Acc(b.D);
+            typename SpanTemplate::TetSpans ts;
+            for (int i = 0; i < 4; ++i) {
+                ts.v[i] = index(t[i]) - index(c);
+                ts.a[i] = b.n[i][0];
+            }
+            ts.first = st.spans.size();
+            int32_t lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min({t[0][a], t[1][a], t[2][a], t[3][a]});
+                hi[a] = std::max({t[0][a], t[1][a], t[2][a], t[3][a]});
+            }
+            for (int64_t z = lo[2]; z <= hi[2]; ++z)
+                for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+                    int64_t x0 = lo[0], x1 = hi[0];
+                    typename SpanTemplate::Span sp;
+                    for (int i = 0; i < 4; ++i) {
+                        const int64_t bi = b.n[i][1] * y + b.n[i][2] * z + b.c[i];
+                        const int64_t ai = b.n[i][0];
+                        sp.b[i] = ai * c[0] + bi;
+                        if (ai > 0) x0 = std::max(x0, ceil_div(-bi, ai));
+                        else if (ai < 0) x1 = std::min(x1, floor_div(bi, -ai));
+                        else if (bi < 0) x1 = x0 - 1;
+                    }
+                    if (x0 > x1) continue;
+                    sp.row = (z - c[2]) * XY_ + (y - c[1]) * X_;
+                    sp.x0 = int32_t(x0 - c[0]);
+                    sp.x1 = int32_t(x1 - c[0]);
+                    st.spans.push_back(sp);
+                }
+            ts.count = st.spans.size() - ts.first;
+            st.tets.push_back(ts);
+        }
+        return st;
+    }
+
+    double eval_span_template(const SpanTemplate& st, int64_t ci) const {
+        const T* base = f_ + ci;
+        const Acc D = st.D;
+        Acc worst = 0;
+        for (const auto& ts : st.tets) {
+            Acc fv[4], A = 0;
+            for (int i = 0; i < 4; ++i) {
+                fv[i] = Acc(base[ts.v[i]]);
+                A += Acc(ts.a[i]) * fv[i];
+            }
+            const auto* sp = st.spans.data() + ts.first;
+            for (std::size_t k = 0; k < ts.count; ++k, ++sp) {
+                const Acc Bc = Acc(sp->b[0]) * fv[0] + Acc(sp->b[1]) * fv[1] +
+                               Acc(sp->b[2]) * fv[2] + Acc(sp->b[3]) * fv[3];
+                const T* row = base + sp->row;
+                for (int32_t x = sp->x0; x <= sp->x1; ++x) {
+                    const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
+                    worst = e > worst ? e : worst;
+                }
+            }
+        }
+        return to_double_up(worst) / double(D);
+    }
+
     double diamond_error(const Pt& c, const DiamondInfo& d) const {
         Tet tets[8];
         const int n = diamond_tets(c, d, dom_.L, tets);
@@ -225,14 +320,18 @@ public:
             // Templates indexed by the centre's residues mod 4h (they fix the spine
             // directions), built on a representative centre well inside the cube.
             std::vector<Template> templates(64);
+            std::vector<SpanTemplate> span_templates(64);
             const bool use_templates = h <= kTemplateMaxH && 12 * h <= dom_.L;
+            const bool point_templates = h <= kPointTemplateMaxH;
             if (use_templates) {
                 for (int r = 0; r < 64; ++r) {
                     const int rr[3] = {r & 3, (r >> 2) & 3, (r >> 4) & 3};
                     const int odd = (rr[0] & 1) + (rr[1] & 1) + (rr[2] & 1);
                     if (3 - odd != cls) continue;
                     Pt rep{8 * h + rr[0] * h, 8 * h + rr[1] * h, 8 * h + rr[2] * h};
-                    templates[r] = make_template(rep, classify_centre(rep, dom_.k));
+                    const DiamondInfo d = classify_centre(rep, dom_.k);
+                    if (point_templates) templates[r] = make_template(rep, d);
+                    else span_templates[r] = make_span_template(rep, d);
                 }
             }
             // Centres of this level: coordinates that are odd multiples of h on
@@ -253,8 +352,12 @@ public:
                         for (int32_t x = first[0]; x <= m[0]; x += step) {
                             const Pt c{x, y, z};
                             double err;
-                            if (use_templates && yz_in && x - h >= 0 && x + h <= m[0])
-                                err = eval_template(templates[key_yz | ((x / h) & 3)], index(c));
+                            const bool inside = yz_in && x - h >= 0 && x + h <= m[0];
+                            const int key = key_yz | ((x / h) & 3);
+                            if (use_templates && inside && point_templates)
+                                err = eval_template(templates[key], index(c));
+                            else if (use_templates && inside)
+                                err = eval_span_template(span_templates[key], index(c));
                             else
                                 err = diamond_error(c, classify_centre(c, dom_.k));
                             out[index(c)] = round_up(err, slack);
