@@ -18,7 +18,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -429,7 +428,7 @@ Prediction predict_v2(const Geometry& G, const T* v, int t, int cls, int64_t x, 
     }
     // Same-cycle neighbours at distance h along the even axes, when all are in the chunk.
     i128 fine = 0;
-    bool fine_ok = all_in && cls > 0 && !std::getenv("TLOD_NOFINE");
+    bool fine_ok = all_in && cls > 0 ;
     for (int a = 0; a < 3 && fine_ok; ++a) {
         if ((c[a] & h) != 0) continue;
         for (int s = -1; s <= 1; s += 2) {
