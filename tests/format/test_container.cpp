@@ -305,3 +305,43 @@ TEST(Lazy, CoarseLodReadsAPrefix) {
         for (int64_t y = 10; y <= 14; ++y)
             for (int64_t x = 10; x <= 14; ++x) ASSERT_EQ(d2->field.value(x, y, z), v.value(x, y, z));
 }
+
+// Lazy extraction from a container must give exactly the mesh of the fully
+// decoded model (same stored bounds), for uniform, box and isovalue queries,
+// while decoding fewer chunks for coarse or local queries.
+TEST(LazyExtract, SameMeshAsFullDecode) {
+    Volume v = tlodtest::make_volume({33, 29, 31}, ValueType::U16, 5);
+    HtModel built = HtModel::build(v);
+    ContainerWriter w;
+    HtEncodeOptions eo;
+    eo.brick_log2 = 1;
+    encode_ht(built, metadata_for_volume(v), w, eo);
+    const auto file = w.finish();
+    auto rf = ContainerReader::from_memory(file);
+    auto full = decode_ht(*rf);
+    ASSERT_TRUE(full.ok());
+    HtModel ref = HtModel::from_parts(full->field, full->layout.domain, full->errors);
+    const double range = ref.value_range()[1] - ref.value_range()[0];
+    std::vector<LodQuery> qs(5);
+    qs[0].error_in = 0.2 * range;
+    qs[1].error_in = 0.01 * range;
+    qs[2].error_in = 0.0;
+    qs[3].box = std::array<int64_t, 6>{3, 4, 5, 9, 9, 9};
+    qs[3].error_in = 0.0;
+    qs[3].error_out = 0.3 * range;
+    qs[4].isovalues = {ref.value_range()[0] + 0.5 * range};
+    qs[4].error_in = 0.02 * range;
+    qs[4].error_out = 0.5 * range;
+    for (std::size_t i = 0; i < qs.size(); ++i) {
+        TetMesh want = ref.extract(qs[i]);
+        auto r = ContainerReader::from_memory(file);
+        HtLazyStats st;
+        auto got = extract_ht_lazy(*r, qs[i], nullptr, &st);
+        ASSERT_TRUE(got.ok()) << got.failure().message;
+        EXPECT_EQ(got->points, want.points) << "query " << i;
+        EXPECT_EQ(got->tets, want.tets) << "query " << i;
+        EXPECT_EQ(got->values, want.values) << "query " << i;
+        EXPECT_EQ(got->error, want.error) << "query " << i;
+        if (i == 0 || i == 3) EXPECT_LT(st.chunks_decoded, st.chunks_total) << "query " << i;
+    }
+}

@@ -850,64 +850,65 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     return L;
 }
 
-Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& req) {
-    auto layout = read_ht_layout(r);
-    if (!layout) return layout.failure();
-    HtDecoded out;
-    out.layout = std::move(*layout);
-    const HtLayout& L = out.layout;
-    const Geometry G = geometry_of(L.domain, L.brick_log2);
-    // Which chunks: walk finest to coarsest, growing the region by what the
-    // predictors of the chosen chunks touch.
-    std::vector<char> want(L.chunks.size(), 0);
-    std::array<int64_t, 6> region = req.box.value_or(std::array<int64_t, 6>{
-        0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]});
-    for (int t = std::max(0, req.finest_cycle); t <= G.k; ++t) {
-        std::array<int64_t, 6> grown = region;
-        for (std::size_t i = 0; i < L.chunks.size(); ++i) {
-            const HtChunk& c = L.chunks[i];
-            if (c.cycle != t) continue;
-            bool meet = true;
-            for (int a = 0; a < 3; ++a)
-                meet = meet && c.box[a] <= region[3 + a] && region[a] <= c.box[3 + a];
-            if (!meet) continue;
-            want[i] = 1;
-            const int64_t h = int64_t{1} << t;
-            for (int a = 0; a < 3; ++a) {
-                grown[a] = std::min(grown[a], c.box[a] - h);
-                grown[3 + a] = std::max(grown[3 + a], c.box[3 + a] + h);
-            }
+namespace {
+
+/// Adds to `want` every chunk the wanted ones depend on: per cycle, the coarser
+/// chunks meeting the wanted chunks' boxes grown by the predictor reach (2^t
+/// at cycle t, spec §6.3). `want` is indexed like L.chunks (file order).
+void add_dependencies(const HtLayout& L, std::vector<char>& want) {
+    // Wanted boxes of the current cycle, grown as we go coarser.
+    std::vector<std::array<int64_t, 6>> region;
+    std::size_t i = L.chunks.size();
+    while (i > 0) {  // from the finest cycle (end of the list) to the coarsest
+        std::size_t b = i;
+        while (b > 0 && L.chunks[b - 1].cycle == L.chunks[i - 1].cycle) --b;
+        const int t = L.chunks[b].cycle;
+        for (std::size_t j = b; j < i; ++j) {
+            const HtChunk& c = L.chunks[j];
+            if (!want[j])
+                for (const auto& g : region) {
+                    bool meet = true;
+                    for (int a = 0; a < 3; ++a)
+                        meet = meet && c.box[a] <= g[3 + a] && g[a] <= c.box[3 + a];
+                    if (meet) {
+                        want[j] = 1;
+                        break;
+                    }
+                }
         }
-        region = grown;
+        const int64_t h = int64_t{1} << t;
+        for (auto& g : region)
+            for (int a = 0; a < 3; ++a) g[a] -= h, g[3 + a] += h;
+        for (std::size_t j = b; j < i; ++j) {
+            if (!want[j]) continue;
+            auto g = L.chunks[j].box;
+            for (int a = 0; a < 3; ++a) g[a] -= h, g[3 + a] += h;
+            region.push_back(g);
+        }
+        i = b;
     }
-    Volume field;
-    try {
-        field = Volume::allocate(L.domain.dims(), L.metadata.type);
-        if (req.errors)
-            out.errors.assign(std::size_t(field.count()), std::numeric_limits<float>::infinity());
-    } catch (const std::bad_alloc&) {
-        return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
-    } catch (const Error& e) {
-        return fail(e.code(), r.name() + ": " + e.what());
-    }
-    if (req.errors)  // cube corners are not diamonds
-        G.for_each_point(G.k, {0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]},
-                         [&](int64_t x, int64_t y, int64_t z) { out.errors[G.index(x, y, z)] = 0.0f; });
+}
+
+/// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
+/// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
+Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
+                                 std::vector<char>& done, Volume& field, std::vector<float>* errors) {
+    const Geometry G = geometry_of(L.domain, L.brick_log2);
     const int m = L.error_mantissa_bits;
-    // One cycle at a time (chunks of a cycle depend only on coarser cycles).
+    uint64_t decoded = 0;
     std::size_t i = 0;
     while (i < L.chunks.size()) {
         std::size_t e = i;
         while (e < L.chunks.size() && L.chunks[e].cycle == L.chunks[i].cycle) ++e;
         std::vector<std::size_t> ids;
         for (std::size_t j = i; j < e; ++j)
-            if (want[j]) ids.push_back(j);
+            if (want[j] && !done[j]) ids.push_back(j);
         std::vector<std::vector<std::byte>> fst(ids.size()), est(ids.size());
         for (std::size_t j = 0; j < ids.size(); ++j) {
             auto s = r.read_stored(L.chunks[ids[j]].field_section);
             if (!s) return s.failure();
             fst[j] = std::move(*s);
-            if (req.errors) {
+            if (errors) {
                 auto s2 = r.read_stored(L.chunks[ids[j]].error_section);
                 if (!s2) return s2.failure();
                 est[j] = std::move(*s2);
@@ -943,7 +944,7 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
                                                             ": malformed range-coded stream");
                 return;
             }
-            if (!req.errors) return;
+            if (!errors) return;
             auto er = unpack(est[j], r.sections()[c.error_section]);
             if (!er) {
                 fails[j] = fail(er.failure().code, r.name() + ": section " +
@@ -954,8 +955,8 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
             const bool codes_ok = dispatch_value_type(field.type, [&](auto tv) {
                 using T = decltype(tv);
                 if (L.residual_coding == kResidualZigzagPlanes)
-                    return decode_error_chunk<T>(G, field.as<T>(), out.errors, c, m, er->data());
-                return decode_error_chunk_v2<T>(G, field.as<T>(), out.errors, c, m, *er);
+                    return decode_error_chunk<T>(G, field.as<T>(), *errors, c, m, er->data());
+                return decode_error_chunk_v2<T>(G, field.as<T>(), *errors, c, m, *er);
             });
             if (!codes_ok)
                 fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
@@ -964,16 +965,148 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
         });
         for (const Failure& f : fails)
             if (f.code != ErrorCode::Ok) return f;
-        out.chunks_decoded += ids.size();
+        for (std::size_t j : ids) done[j] = 1;
+        decoded += ids.size();
         i = e;
     }
-    field.spacing = L.metadata.spacing;
-    field.origin = L.metadata.origin;
-    field.field_name = L.metadata.field_name();
-    field.units = L.metadata.units();
-    field.metadata = L.metadata.user_keys;
+    return decoded;
+}
+
+void restore_metadata(Volume& field, const tlod::Metadata& md) {
+    field.spacing = md.spacing;
+    field.origin = md.origin;
+    field.field_name = md.field_name();
+    field.units = md.units();
+    field.metadata = md.user_keys;
+}
+
+}  // namespace
+
+Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& req) {
+    auto layout = read_ht_layout(r);
+    if (!layout) return layout.failure();
+    HtDecoded out;
+    out.layout = std::move(*layout);
+    const HtLayout& L = out.layout;
+    const Geometry G = geometry_of(L.domain, L.brick_log2);
+    std::vector<char> want(L.chunks.size(), 0), done(L.chunks.size(), 0);
+    const std::array<int64_t, 6> region = req.box.value_or(std::array<int64_t, 6>{
+        0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]});
+    for (std::size_t i = 0; i < L.chunks.size(); ++i) {
+        const HtChunk& c = L.chunks[i];
+        if (c.cycle < req.finest_cycle) continue;
+        bool meet = true;
+        for (int a = 0; a < 3; ++a) meet = meet && c.box[a] <= region[3 + a] && region[a] <= c.box[3 + a];
+        want[i] = meet;
+    }
+    add_dependencies(L, want);
+    Volume field;
+    try {
+        field = Volume::allocate(L.domain.dims(), L.metadata.type);
+        if (req.errors)
+            out.errors.assign(std::size_t(field.count()), std::numeric_limits<float>::infinity());
+    } catch (const std::bad_alloc&) {
+        return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
+    } catch (const Error& e) {
+        return fail(e.code(), r.name() + ": " + e.what());
+    }
+    if (req.errors)  // cube corners are not diamonds
+        G.for_each_point(G.k, {0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]},
+                         [&](int64_t x, int64_t y, int64_t z) { out.errors[G.index(x, y, z)] = 0.0f; });
+    auto n = decode_chunks(r, L, want, done, field, req.errors ? &out.errors : nullptr);
+    if (!n) return n.failure();
+    out.chunks_decoded = *n;
+    restore_metadata(field, L.metadata);
     out.field = std::move(field);
     return out;
+}
+
+Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& query, HtExtractStats* es,
+                                  HtLazyStats* ls) {
+    auto layout = read_ht_layout(r);
+    if (!layout) return layout.failure();
+    const HtLayout& L = *layout;
+    const Geometry G = geometry_of(L.domain, L.brick_log2);
+    std::vector<char> want(L.chunks.size(), 0), done(L.chunks.size(), 0);
+    Volume field;
+    std::vector<float> errors;
+    try {
+        field = Volume::allocate(L.domain.dims(), L.metadata.type);
+        // Undecoded diamonds read as error 0 ("fine"): the refinement then stops
+        // at them, and the check below finds every such stop and loads it.
+        errors.assign(std::size_t(field.count()), 0.0f);
+    } catch (const std::bad_alloc&) {
+        return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
+    } catch (const Error& e) {
+        return fail(e.code(), r.name() + ": " + e.what());
+    }
+    restore_metadata(field, L.metadata);
+    // Chunk of a grid point of B: cycle from the trailing zeros, brick from the coordinates.
+    std::vector<std::size_t> first_of_cycle(std::size_t(G.k + 1), 0);
+    for (std::size_t i = L.chunks.size(); i-- > 0;) first_of_cycle[std::size_t(L.chunks[i].cycle)] = i;
+    auto chunk_of = [&](const std::array<int32_t, 3>& p) -> std::size_t {
+        int t = G.k;
+        for (int a = 0; a < 3; ++a)
+            if (p[a] != 0) t = std::min(t, std::countr_zero(uint32_t(p[a])));
+        const auto n = G.bricks(t);
+        int64_t bi[3];
+        for (int a = 0; a < 3; ++a) bi[a] = std::min<int64_t>(p[a] / G.side(t), n[a] - 1);
+        return first_of_cycle[std::size_t(t)] + std::size_t((bi[2] * n[1] + bi[1]) * n[0] + bi[0]);
+    };
+    // Start with the three coarsest cycles (a small prefix of the file).
+    for (std::size_t i = 0; i < L.chunks.size(); ++i) want[i] = L.chunks[i].cycle >= G.k - 2;
+    HtLazyStats st;
+    st.chunks_total = L.chunks.size();
+    const int max_level = 3 * G.k;
+    for (;;) {
+        add_dependencies(L, want);
+        auto n = decode_chunks(r, L, want, done, field, &errors);
+        if (!n) return n.failure();
+        st.chunks_decoded += *n;
+        ++st.passes;
+        HtModel model;
+        try {
+            model = HtModel::from_parts(field, L.domain, errors);
+        } catch (const Error& e) {
+            return fail(e.code(), r.name() + ": " + e.what());
+        }
+        TetMesh mesh = model.extract(query, es);
+        // The mesh is the true one iff every vertex and the diamond under every
+        // non-finest tet (centred at its longest edge's midpoint, the one the
+        // refinement judged) are decoded.
+        bool missing = false;
+        auto need = [&](const std::array<int32_t, 3>& p) {
+            const std::size_t c = chunk_of(p);
+            if (!done[c]) {
+                want[c] = 1;
+                missing = true;
+            }
+        };
+        for (const auto& p : mesh.points) need(p);
+        for (std::size_t ti = 0; ti < mesh.tets.size(); ++ti) {
+            if (mesh.level[ti] >= max_level) continue;
+            const auto& tv = mesh.tets[ti];
+            int64_t best = -1;
+            std::array<int32_t, 3> mid{};
+            for (int a = 0; a < 4; ++a)
+                for (int b = a + 1; b < 4; ++b) {
+                    const auto& P = mesh.points[tv[a]];
+                    const auto& Q = mesh.points[tv[b]];
+                    int64_t d2 = 0;
+                    for (int q = 0; q < 3; ++q) d2 += int64_t(P[q] - Q[q]) * (P[q] - Q[q]);
+                    if (d2 > best) {
+                        best = d2;
+                        for (int q = 0; q < 3; ++q) mid[q] = (P[q] + Q[q]) / 2;
+                    }
+                }
+            if (L.domain.in_box(mid[0], mid[1], mid[2])) need(mid);
+        }
+        if (!missing) {
+            st.bytes_read = r.bytes_read();
+            if (ls) *ls = st;
+            return mesh;
+        }
+    }
 }
 
 Expected<Volume> decode_volume(tlod::ContainerReader& r) {

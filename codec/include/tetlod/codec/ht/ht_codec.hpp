@@ -91,6 +91,20 @@ struct HtDecoded {
 /// (checksum, size, zstd frame, code ranges) before its content is used.
 Expected<HtDecoded> decode_ht(tlod::ContainerReader& reader, const HtDecodeRequest& request = {});
 
+struct HtLazyStats {
+    uint64_t chunks_total = 0;
+    uint64_t chunks_decoded = 0;
+    uint64_t bytes_read = 0;  // from the container, header and table included
+    int passes = 0;           // extraction passes (each after loading more chunks)
+};
+/// The LOD mesh of `query`, decoding only the chunks the refinement examines:
+/// starts from the three coarsest cycles, extracts, and loads every chunk
+/// holding a vertex of the mesh or the diamond of a tet the refinement stopped
+/// at (judged with an undecoded error), until there is none: the result equals
+/// the extraction from the fully decoded model. Safe on untrusted input.
+Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery& query,
+                                  HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr);
+
 /// The original volume, bit-exact (padding removed), with its metadata restored.
 Expected<Volume> decode_volume(tlod::ContainerReader& reader);
 
