@@ -93,7 +93,8 @@ public:
         mesh_.tets.reserve(expect);
         mesh_.level.reserve(expect);
         mesh_.error.reserve(expect);
-        for (const auto& r : roots) emit(r);
+        for (const auto& r : roots)
+            emit(r, /*inside=*/false, ht::orient(r.v[0], r.v[1], r.v[2], r.v[3]) > 0);
         fill_values();
         const auto t2 = std::chrono::steady_clock::now();
         if (stats) {
@@ -271,30 +272,38 @@ private:
         }
     }
 
-    void emit(const ht::MTet& t) {
+    /// `inside`: the tet is known to lie inside B (then so do its descendants).
+    /// `positive`: its vertex order is positively oriented. Maubach's children
+    /// keep the parent's orientation (first child) or flip it when the tag is 3
+    /// or 1 (second child), so no determinant is needed per tet.
+    void emit(const ht::MTet& t, bool inside, bool positive) {
         ++visited_;
-        const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
-        if (rel == BoxRelation::Outside) return;
-        bool refine = rel == BoxRelation::Crossing;
+        bool refine = false;
+        if (!inside) {
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) return;
+            refine = rel == BoxRelation::Crossing;
+            inside = !refine;
+        }
         int64_t centre = -1;
         if (!refine && t.level < dom_.max_level()) {
             centre = index(ht::maubach_centre(t));
             refine = (split_[centre >> 6] >> (centre & 63)) & 1;
         }
         if (!refine) {
-            output(t, centre < 0 ? 0.0f : err_[centre]);  // unit tets have no error
+            output(t, positive, centre < 0 ? 0.0f : err_[centre]);  // unit tets: no error
             return;
         }
         ht::MTet c1, c2;
         ht::maubach_bisect(t, c1, c2);
-        emit(c1);
-        emit(c2);
+        emit(c1, inside, positive);
+        emit(c2, inside, t.tag == 2 ? positive : !positive);
     }
 
-    void output(const ht::MTet& t, float err) {
+    void output(const ht::MTet& t, bool positive, float err) {
         std::array<uint32_t, 4> ids;
         for (int i = 0; i < 4; ++i) ids[i] = vertex_id_[index(t.v[i])];
-        if (ht::orient(t.v[0], t.v[1], t.v[2], t.v[3]) < 0) std::swap(ids[2], ids[3]);
+        if (!positive) std::swap(ids[2], ids[3]);
         mesh_.tets.push_back(ids);
         mesh_.level.push_back(t.level);
         mesh_.error.push_back(err);
