@@ -8,6 +8,8 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
+#include "extract_tlod.hpp"
+#include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/core/error.hpp"
@@ -50,6 +52,15 @@ int run_extract(const ExtractArgs& a) {
     const auto error_out =
         ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
 
+    if (is_tlod_file(a.input)) {  // containers: lazy extraction, no model build
+        TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
+        t.query.full = a.full;
+        if (!a.box.empty()) t.query.box = parse_box(a.box, "--box");
+        for (const auto& s : a.isovalues) t.query.isovalues.push_back(parse_number(s, "--isovalue"));
+        t.error_in = [error_in](const std::array<double, 2>& r) { return error_in.resolve(r); };
+        t.error_out = [error_out](const std::array<double, 2>& r) { return error_out.resolve(r); };
+        return run_extract_tlod(std::move(t));
+    }
     Volume volume = load_volume(a.input, a.volume.options());
     const Dims dims = volume.dims;
     const std::string type_name = value_type_name(volume.type);
