@@ -144,13 +144,15 @@ VolumeReadOptions VolumeFlags::options() const {
     o.header_bytes = header_bytes;
     if (!spacing.empty()) o.spacing = parse_vec3(spacing, "--spacing");
     if (!origin.empty()) o.origin = parse_vec3(origin, "--origin");
+    o.grid = grid;
+    o.axis_order = axis_order;
     return o;
 }
 
 void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
     const std::string group =
-        "Volume input (raw files; dims and dtype can come from a name "
-        "like NAME_XxYxZ_DTYPE.raw)";
+        "Volume input (raw, .nrrd/.nhdr, .mhd/.mha, .vdb, FILE.h5:/dataset; raw dims and "
+        "dtype can come from a name like NAME_XxYxZ_DTYPE.raw)";
     sub.add_option("--dims", f.dims, "Samples per axis X,Y,Z (x varies fastest)")
         ->group(group)
         ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));
@@ -173,6 +175,13 @@ void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
     sub.add_option("--origin", f.origin, "World position ox,oy,oz of sample (0,0,0)")
         ->group(group)
         ->check(check_with([](const std::string& s) { parse_vec3(s, ""); }));
+    sub.add_option("--grid", f.grid,
+                   "OpenVDB: name of the grid to read (default: the only scalar grid)")
+        ->group(group);
+    sub.add_option("--axis-order", f.axis_order,
+                   "HDF5: zyx (C order [z][y][x], default) or xyz (x slowest)")
+        ->group(group)
+        ->check(CLI::IsMember({"zyx", "xyz"}));
 }
 
 Volume load_volume(const std::string& path, const VolumeReadOptions& options) {

@@ -30,16 +30,17 @@ void detail(const std::string& message);
 /// Raw-volume and geometry flags as typed; converted after parsing so errors
 /// name the flag.
 struct VolumeFlags {
-    std::string dims, dtype, endian = "little", spacing, origin;
+    std::string dims, dtype, endian = "little", spacing, origin, grid, axis_order;
     uint64_t header_bytes = 0;
     VolumeReadOptions options() const;
 };
-/// Adds --dims --dtype --endian --header-bytes --spacing --origin to `sub`, in a
-/// "Volume input" group, each validated while CLI11 parses (bad text: exit 2).
+/// Adds --dims --dtype --endian --header-bytes --spacing --origin (raw) and
+/// --grid (OpenVDB) --axis-order (HDF5) to `sub`, in a "Volume input" group, each
+/// validated while CLI11 parses (bad text: exit 2).
 void add_volume_flags(CLI::App& sub, VolumeFlags& flags);
 
-/// Reads a volume file. The single place that picks a reader for a path: today
-/// raw only; other formats (.nrrd, .mhd, .vdb, .h5) get routed here.
+/// Reads a volume file (raw, .nrrd/.nhdr, .mhd/.mha, .vdb, FILE.h5:/dataset):
+/// the single place the tools pick a reader for a path.
 Volume load_volume(const std::string& path, const VolumeReadOptions& options);
 
 /// Parsers; `flag` names the option in error messages (empty inside CLI11
