@@ -219,9 +219,11 @@ std::vector<std::pair<std::string, std::string>> write_stats_plots(
     auto lines = [&](const std::vector<QueryRow> ModelStats::*rows, double QueryRow::*y,
                      const std::string& suffix) {
         std::vector<PlotSeries> ss;
-        for (const auto& m : models) {
+        for (std::size_t mi = 0; mi < models.size(); ++mi) {
+            const auto& m = models[mi];
             PlotSeries s;
             s.label = m.name + suffix;
+            s.color = int(mi);
             for (const auto& r : m.*rows) s.x.push_back(r.error), s.y.push_back(r.*y);
             ss.push_back(s);
         }
@@ -235,10 +237,12 @@ std::vector<std::pair<std::string, std::string>> write_stats_plots(
         p.y_label = "tetrahedra";
         p.log_x = p.log_y = true;
         p.series = lines(&ModelStats::uniform, &QueryRow::tets, "");
-        for (const auto& m : models) {
+        for (std::size_t mi = 0; mi < models.size(); ++mi) {
+            const auto& m = models[mi];
             PlotSeries s;
             s.label = m.name + " full resolution";
             s.dashed = true;
+            s.color = int(mi);
             for (const auto& r : m.uniform) s.x.push_back(r.error), s.y.push_back(double(m.full_tets));
             p.series.push_back(s);
         }
@@ -279,12 +283,14 @@ std::vector<std::pair<std::string, std::string>> write_stats_plots(
                      " and full resolution; lower is better (cf. Fig. 8)";
         p.x_label = "circumradius / shortest edge";
         p.y_label = "share of tetrahedra (%)";
-        for (const auto& m : models)
+        for (std::size_t mi = 0; mi < models.size(); ++mi)
             for (int which = 0; which < 2; ++which) {
+                const auto& m = models[mi];
                 const auto& q = which == 0 ? m.quality_lod : m.quality_full;
                 PlotSeries s;
                 s.label = m.name + (which == 0 ? " LOD" : " full resolution");
                 s.dashed = which == 1;
+                s.color = int(mi);
                 const int bins = int(q.histogram.size());
                 for (int i = 0; i <= bins; ++i) s.x.push_back(q.hist_lo + (q.hist_hi - q.hist_lo) * i / bins);
                 for (auto c : q.histogram) s.y.push_back(q.count ? 100.0 * double(c) / double(q.count) : 0);
@@ -300,9 +306,11 @@ std::vector<std::pair<std::string, std::string>> write_stats_plots(
         p.x_label = "tetrahedra extracted";
         p.y_label = "time (ms)";
         p.log_x = p.log_y = true;
-        for (const auto& m : models) {
+        for (std::size_t mi = 0; mi < models.size(); ++mi) {
+            const auto& m = models[mi];
             PlotSeries s;
             s.label = m.name;
+            s.color = int(mi);
             for (const auto& r : m.uniform) s.x.push_back(r.tets), s.y.push_back(r.seconds * 1e3);
             p.series.push_back(s);
         }

@@ -189,7 +189,7 @@ std::string render_svg(const Plot& plot) {
     o += "<g clip-path=\"url(#area)\">\n";
     for (std::size_t si = 0; si < plot.series.size(); ++si) {
         const auto& s = plot.series[si];
-        const std::string color = kColors[si % 8];
+        const std::string color = kColors[(s.color >= 0 ? std::size_t(s.color) : si) % 8];
         const std::string dash = s.dashed ? " stroke-dasharray=\"6,4\"" : "";
         if (plot.kind == Plot::Kind::Histogram) {
             if (s.x.size() != s.y.size() + 1) continue;
@@ -227,7 +227,7 @@ std::string render_svg(const Plot& plot) {
     double ly = kTop + 8;
     for (std::size_t si = 0; si < plot.series.size(); ++si) {
         const auto& s = plot.series[si];
-        const std::string color = kColors[si % 8];
+        const std::string color = kColors[(s.color >= 0 ? std::size_t(s.color) : si) % 8];
         const std::string dash = s.dashed ? " stroke-dasharray=\"6,4\"" : "";
         o += "<line x1=\"" + num(kRight + 16) + "\" y1=\"" + num(ly) + "\" x2=\"" + num(kRight + 42) +
              "\" y2=\"" + num(ly) + "\" stroke=\"" + color + "\" stroke-width=\"" +

@@ -12,6 +12,8 @@ struct PlotSeries {
     std::string label;
     std::vector<double> x, y;  // lines: points; histogram: x = bin edges (y.size() + 1)
     bool dashed = false;
+    /// Palette index; -1: the series' position. Series of one model share a colour.
+    int color = -1;
 };
 
 struct Plot {
