@@ -51,7 +51,9 @@ TEST(MtCodec, RoundTripPassesTheChecker) {
             for (const auto& q : qs) {
                 SCOPED_TRACE(query_str(q));
                 const TetMesh mesh = m.extract(q);
-                if (q.full) EXPECT_EQ(int64_t(mesh.tet_count()), 5 * cells(d));
+                if (q.full) {
+                    EXPECT_EQ(int64_t(mesh.tet_count()), 5 * cells(d));
+                }
                 EXPECT_TRUE(mesh_ok(b.vol, mesh, mt_check_options(q, b.vol)));
             }
         }
