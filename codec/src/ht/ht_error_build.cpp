@@ -101,6 +101,15 @@ double to_double_up(Acc v) {
     }
 }
 
+/// Reorders t to positive orientation (as barycentric_of does) and returns its
+/// barycentric numerators, for templates that keep the vertex order.
+Barycentric orient_positive(Tet& t) {
+    double unused[4] = {0, 0, 0, 0};
+    const Barycentric b = barycentric_of(t, unused);
+    if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+    return b;
+}
+
 template <class T, class Acc>
 class ErrorBuilder {
 public:
@@ -166,9 +175,7 @@ public:
         std::map<int64_t, typename Template::Entry> points;
         for (int ti = 0; ti < n; ++ti) {
             Tet t = tets[ti];
-            double dummy[4] = {0, 0, 0, 0};
-            Barycentric b = barycentric_of(t, dummy);
-            if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+            const Barycentric b = orient_positive(t);
             tpl.D = Acc(b.D);
             for (int32_t z = c[2] - d.h; z <= c[2] + d.h; ++z)
                 for (int32_t y = c[1] - d.h; y <= c[1] + d.h; ++y)
@@ -234,9 +241,7 @@ public:
         const int n = diamond_tets(c, d, dom_.L, tets);
         for (int ti = 0; ti < n; ++ti) {
             Tet t = tets[ti];
-            double dummy[4] = {0, 0, 0, 0};
-            const Barycentric b = barycentric_of(t, dummy);
-            if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+            const Barycentric b = orient_positive(t);
             st.D = Acc(b.D);
             typename SpanTemplate::TetSpans ts;
             for (int i = 0; i < 4; ++i) {
