@@ -56,7 +56,10 @@ std::string report_markdown(const CompareArgs& a, const Volume& v, const std::ve
     for (const auto& m : ms) (m.name == "HT" ? ht : mt) = &m;
     std::ostringstream o;
     o << "# HT and MT on " << name << "\n\n";
-    o << "Written by `tetlod compare " << name << " --report " << std::filesystem::path(a.report).filename().string()
+        // The report names its own folder, not the absolute path it was written to.
+    std::string dir = std::filesystem::path(a.report).lexically_normal().filename().string();
+    if (dir.empty()) dir = std::filesystem::path(a.report).lexically_normal().parent_path().filename().string();
+    o << "Written by `tetlod compare " << name << " --report " << dir
       << "` (tetlod " << TETLOD_VERSION_STRING << ", " << today()
       << "): the experiments of Danovaro, De Floriani, Lee, Samet, *Multiresolution tetrahedral "
          "meshes: an analysis and a comparison*, on this volume. Numbers: `stats.csv`, "
@@ -64,7 +67,7 @@ std::string report_markdown(const CompareArgs& a, const Volume& v, const std::ve
     o << "**Data.** " << format_dims(v.dims, 'x') << " " << value_type_name(v.type) << ", "
       << v.count() << " grid points, spacing " << format_number(v.spacing[0]) << ", "
       << format_number(v.spacing[1]) << ", " << format_number(v.spacing[2]) << ", values "
-      << format_number(ms[0].range[0]) << "..." << format_number(ms[0].range[1])
+      << format_number(ms[0].range[0]) << ".." << format_number(ms[0].range[1])
       << ". Error thresholds are in field units (0.1% to 50% of the value range).\n\n";
     if (!mt_note.empty()) o << "**MT.** " << mt_note << "\n\n";
 

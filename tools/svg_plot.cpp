@@ -179,8 +179,10 @@ std::string render_svg(const Plot& plot) {
         const double px = ax.px(x);
         o += "<line x1=\"" + num(px) + "\" y1=\"" + num(kTop) + "\" x2=\"" + num(px) + "\" y2=\"" +
              num(kBottom) + "\" stroke=\"#444\" stroke-dasharray=\"2,3\"/>\n";
-        o += "<text x=\"" + num(px + 3) + "\" y=\"" + num(kTop + 12) +
-             "\" font-size=\"10\" fill=\"#444\">" + esc(label) + "</text>\n";
+        // Vertical, along the line's right side from the top: never runs into bars
+        // or other marks to its right.
+        o += "<text transform=\"translate(" + num(px + 11) + "," + num(kTop + 6) +
+             ") rotate(90)\" font-size=\"10\" fill=\"#444\">" + esc(label) + "</text>\n";
     }
 
     // Data, clipped to the plot area.
