@@ -302,48 +302,159 @@ inline int activity_bucket(uint64_t a) {
 }
 
 /// Lattice of a chunk's box at spacing h: per point a saturated magnitude + 1
-/// (0 = not coded yet in this chunk), for the neighbour contexts.
+/// (0 = not coded yet in this chunk), for the neighbour contexts. The lattice
+/// carries a border of 2 cells below and 1 above on every axis that is never
+/// set, so the neighbour lookups of spec §7.6 need no bounds checks.
 struct ChunkLattice {
-    int64_t h = 1, x0 = 0, y0 = 0, z0 = 0;
-    int64_t nx = 0, ny = 0, nz = 0;
-    std::vector<uint32_t> mag;
-    ChunkLattice(int t, const std::array<int64_t, 6>& b) {
-        h = int64_t{1} << t;
+    int t = 0;
+    int64_t x0 = 0, y0 = 0, z0 = 0;
+    int64_t px = 0, pxy = 0;  // strides of the padded lattice
+    std::vector<uint32_t>& mag;
+    ChunkLattice(int cycle, const std::array<int64_t, 6>& b, std::vector<uint32_t>& storage)
+        : t(cycle), mag(storage) {
+        const int64_t h = int64_t{1} << t;
         auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
         x0 = up(b[0]);
         y0 = up(b[1]);
         z0 = up(b[2]);
-        nx = b[3] >= x0 ? (b[3] - x0) / h + 1 : 0;
-        ny = b[4] >= y0 ? (b[4] - y0) / h + 1 : 0;
-        nz = b[5] >= z0 ? (b[5] - z0) / h + 1 : 0;
-        mag.assign(std::size_t(nx * ny * nz), 0);
+        const int64_t nx = b[3] >= x0 ? (b[3] - x0) / h + 1 : 0;
+        const int64_t ny = b[4] >= y0 ? (b[4] - y0) / h + 1 : 0;
+        const int64_t nz = b[5] >= z0 ? (b[5] - z0) / h + 1 : 0;
+        px = nx + 3;
+        pxy = px * (ny + 3);
+        mag.assign(std::size_t(pxy * (nz + 3)), 0);
     }
+    /// Slot of a point of the chunk (on the lattice, inside the box).
     int64_t slot(int64_t x, int64_t y, int64_t z) const {
-        const int64_t i = (x - x0) / h, j = (y - y0) / h, l = (z - z0) / h;
-        if (x < x0 || y < y0 || z < z0 || i >= nx || j >= ny || l >= nz) return -1;
-        return (l * ny + j) * nx + i;
+        return (((z - z0) >> t) + 2) * pxy + (((y - y0) >> t) + 2) * px + ((x - x0) >> t) + 2;
     }
-    void set(int64_t x, int64_t y, int64_t z, uint64_t m) {
-        mag[std::size_t(slot(x, y, z))] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1);
-    }
-    /// Spec §7.5: mean magnitude of the already coded lattice neighbours among
+    void set(int64_t s, uint64_t m) { mag[std::size_t(s)] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
+    /// Spec §7.6: mean magnitude of the already coded lattice neighbours among
     /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
-    uint64_t neighbour_mean(int64_t x, int64_t y, int64_t z) const {
-        static constexpr int off[9][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1},
-                                          {0, 0, 1},  {-2, 0, 0}, {0, -2, 0}, {0, 0, -2}};
+    uint64_t neighbour_mean(int64_t s) const {
+        const uint32_t* q = mag.data() + s;
+        const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
         uint64_t sum = 0, n = 0;
-        for (const auto& o : off) {
-            const int64_t s = slot(x + o[0] * h, y + o[1] * h, z + o[2] * h);
-            if (s < 0) continue;
-            const uint32_t v = mag[std::size_t(s)];
-            if (v) {
-                sum += v - 1;
-                ++n;
-            }
+        for (uint32_t w : v) {
+            sum += w ? w - 1 : 0;
+            n += w != 0;
         }
         return n ? sum / n : 0;
     }
 };
+
+/// Offsets of the 27 points c + h·(ox, oy, oz), o in {-1, 0, 1}^3, coded as
+/// (ox+1) + 3(oy+1) + 9(oz+1).
+constexpr int nb27(int ox, int oy, int oz) { return (ox + 1) + 3 * (oy + 1) + 9 * (oz + 1); }
+
+/// Closed form of the edge scan of spec §8.3 for a diamond whose tets lie in the
+/// chunk's box: the distinct edges (a, b) of its tets with their midpoint m on
+/// the h-lattice, as 27-neighbour indices. The set depends only on the sign
+/// pattern sig of §2 (0 on the even axes), which also fixes the class.
+struct DiamondEdges {
+    uint8_t n = 0;
+    uint8_t a[48], b[48], m[48];
+};
+struct DiamondEdgeTable {
+    DiamondEdges by_sig[27];
+    DiamondEdgeTable() {
+        static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+        for (int code = 0; code < 27; ++code) {
+            const int sig[3] = {code % 3 - 1, code / 3 % 3 - 1, code / 9 - 1};
+            if (sig[0] == 0 && sig[1] == 0 && sig[2] == 0) continue;
+            // A representative centre of cycle 0 in [0, 16]^3: an odd axis with
+            // sig = +1 is 3 ((3 + 1) mod 4 = 0), with sig = -1 is 1; an even axis is 2.
+            ht::Pt c;
+            for (int a = 0; a < 3; ++a) c[a] = sig[a] == 0 ? 2 : (sig[a] > 0 ? 3 : 1);
+            ht::Tet tets[8];
+            const int nt = ht::diamond_tets(c, ht::classify_centre(c, 4), 16, tets);
+            DiamondEdges& E = by_sig[code];
+            for (int i = 0; i < nt; ++i)
+                for (const auto& e : kEdges) {
+                    int oa[3], ob[3];
+                    bool lattice = true;
+                    for (int q = 0; q < 3; ++q) {
+                        oa[q] = tets[i][e[0]][q] - c[q];
+                        ob[q] = tets[i][e[1]][q] - c[q];
+                        lattice = lattice && ((oa[q] + ob[q]) & 1) == 0;
+                    }
+                    if (!lattice) continue;
+                    int ia = nb27(oa[0], oa[1], oa[2]), ib = nb27(ob[0], ob[1], ob[2]);
+                    if (ia > ib) std::swap(ia, ib);
+                    bool seen = false;
+                    for (int j = 0; j < E.n; ++j) seen = seen || (E.a[j] == ia && E.b[j] == ib);
+                    if (seen) continue;
+                    E.a[E.n] = uint8_t(ia);
+                    E.b[E.n] = uint8_t(ib);
+                    E.m[E.n] = uint8_t(nb27((oa[0] + ob[0]) / 2, (oa[1] + ob[1]) / 2, (oa[2] + ob[2]) / 2));
+                    ++E.n;
+                }
+        }
+    }
+};
+const DiamondEdgeTable& diamond_edge_table() {
+    static const DiamondEdgeTable table;
+    return table;
+}
+
+/// Sign pattern code (index into DiamondEdgeTable) of a diamond centre of cycle t.
+inline int sig_code(int64_t x, int64_t y, int64_t z, int64_t h) {
+    auto sg = [h](int64_t v) { return (v & h) == 0 ? 1 : (((v + h) & (4 * h - 1)) == 0 ? 2 : 0); };
+    return sg(x) + 3 * sg(y) + 9 * sg(z);
+}
+
+/// Per chunk: the linear field offsets of the 27 neighbours at spacing h, and
+/// the test for the chunk interior (c ± h inside the chunk's box, which lies in
+/// B), where every point a predictor or the lattice bound reads is available.
+struct ChunkFrame {
+    int64_t h = 1;
+    std::array<int64_t, 6> cb{};
+    int64_t off[27]{};
+    ChunkFrame(const Geometry& G, int t, const std::array<int64_t, 6>& box) : h(int64_t{1} << t), cb(box) {
+        for (int oz = -1; oz <= 1; ++oz)
+            for (int oy = -1; oy <= 1; ++oy)
+                for (int ox = -1; ox <= 1; ++ox)
+                    off[nb27(ox, oy, oz)] = ((oz * h) * G.ny + oy * h) * G.nx + ox * h;
+    }
+    bool interior(int64_t x, int64_t y, int64_t z) const {
+        return x - h >= cb[0] && y - h >= cb[1] && z - h >= cb[2] && x + h <= cb[3] && y + h <= cb[4] &&
+               z + h <= cb[5];
+    }
+};
+
+/// Per odd-axis mask: the coarse neighbours (±h on every odd axis) and the
+/// fine ones (±h on one even axis) of the neighbour predictor, as 27-indices.
+struct PredictorStencils {
+    uint8_t nc[8]{}, nf[8]{};
+    uint8_t coarse[8][8]{}, fine[8][6]{};
+    PredictorStencils() {
+        for (int mask = 1; mask < 8; ++mask) {
+            for (int s = 0; s < 8; ++s) {
+                int o[3];
+                bool ok = true;
+                for (int a = 0; a < 3; ++a) {
+                    const int bit = (s >> a) & 1;
+                    if (mask & (1 << a)) o[a] = bit ? 1 : -1;
+                    else if (bit) ok = false;
+                    else o[a] = 0;
+                }
+                if (ok) coarse[mask][nc[mask]++] = uint8_t(nb27(o[0], o[1], o[2]));
+            }
+            for (int a = 0; a < 3; ++a) {
+                if (mask & (1 << a)) continue;
+                for (int sg = -1; sg <= 1; sg += 2) {
+                    int o[3] = {0, 0, 0};
+                    o[a] = sg;
+                    fine[mask][nf[mask]++] = uint8_t(nb27(o[0], o[1], o[2]));
+                }
+            }
+        }
+    }
+};
+const PredictorStencils& predictor_stencils() {
+    static const PredictorStencils table;
+    return table;
+}
 
 /// Calls f(x, y, z, cls) for the chunk's points in coding order 2: class 0
 /// (cube centres), class 1 (face centres), class 2 (edge midpoints), each z
@@ -460,6 +571,51 @@ Prediction predict_v2(const Geometry& G, const T* v, int t, int cls, int64_t x, 
     return r;
 }
 
+/// Predictor 2 in the chunk interior (ChunkFrame::interior): every coarse
+/// neighbour is in B and every fine one in the chunk, so the stencils are fixed.
+/// Same result as predict_v2 there.
+template <class T>
+Prediction predict_interior(const T* v, int64_t idx, int mask, int cls, const ChunkFrame& F) {
+    using Sum = std::conditional_t<(sizeof(T) < 8), int64_t, i128>;
+    const PredictorStencils& P = predictor_stencils();
+    const T* c = v + idx;
+    int64_t w = Dom<T>::get(c[F.off[P.coarse[mask][0]]]);
+    int64_t mn = w, mx = w;
+    Sum coarse = w;
+    for (int i = 1; i < P.nc[mask]; ++i) {
+        w = Dom<T>::get(c[F.off[P.coarse[mask][i]]]);
+        coarse += w;
+        mn = std::min(mn, w);
+        mx = std::max(mx, w);
+    }
+    Prediction r;
+    if (cls == 0) {
+        r.p = int64_t(coarse >> 3);
+    } else {
+        Sum fine = 0;
+        for (int i = 0; i < P.nf[mask]; ++i) {
+            w = Dom<T>::get(c[F.off[P.fine[mask][i]]]);
+            fine += w;
+            mn = std::min(mn, w);
+            mx = std::max(mx, w);
+        }
+        r.p = cls == 1 ? int64_t((coarse + 2 * fine) >> 3) : int64_t((2 * coarse + fine) >> 3);
+    }
+    r.spread = uint64_t(mx) - uint64_t(mn);
+    return r;
+}
+
+template <class T>
+Prediction predict_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int cls, int64_t x,
+                         int64_t y, int64_t z, int64_t idx) {
+    if (cls < 3 && F.interior(x, y, z)) {
+        const int64_t h = F.h;
+        const int mask = ((x & h) ? 1 : 0) | ((y & h) ? 2 : 0) | ((z & h) ? 4 : 0);
+        return predict_interior(v, idx, mask, cls, F);
+    }
+    return predict_v2(G, v, t, cls, x, y, z, F.cb);
+}
+
 struct FieldModels {
     rc::IntModel m[4][16];
 };
@@ -475,16 +631,20 @@ std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, cons
     std::vector<std::byte> out;
     if (c.points == 0) return out;
     auto models = std::make_unique<FieldModels>();
-    ChunkLattice lat(c.cycle, c.box);
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
     rc::Encoder enc(out);
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
-        const Prediction pr = predict_v2(G, v, c.cycle, cls, x, y, z, c.box);
-        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(x, y, z);
-        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[G.index(x, y, z)])) - uint64_t(pr.p)));
+        const int64_t idx = G.index(x, y, z);
+        const Prediction pr = predict_point(G, v, F, c.cycle, cls, x, y, z, idx);
+        const int64_t s = lat.slot(x, y, z);
+        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
+        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
         const bool neg = r < 0;
         const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
         rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, W);
-        lat.set(x, y, z, mag);
+        lat.set(s, mag);
     });
     enc.finish();
     return out;
@@ -497,17 +657,21 @@ bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<
     constexpr int W = D::W;
     if (c.points == 0) return in.empty();
     auto models = std::make_unique<FieldModels>();
-    ChunkLattice lat(c.cycle, c.box);
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
     rc::Decoder dec(in.data(), in.size());
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
-        const Prediction pr = predict_v2(G, v, c.cycle, cls, x, y, z, c.box);
-        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(x, y, z);
+        const int64_t idx = G.index(x, y, z);
+        const Prediction pr = predict_point(G, v, F, c.cycle, cls, x, y, z, idx);
+        const int64_t s = lat.slot(x, y, z);
+        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
         uint64_t mag;
         bool neg;
         rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, W);
         const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
-        v[G.index(x, y, z)] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
-        lat.set(x, y, z, mag);
+        v[idx] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
+        lat.set(s, mag);
     });
     return !dec.bad_end();
 }
@@ -567,10 +731,82 @@ uint32_t lattice_bound_code(const Geometry& G, const T* v, int t, int64_t x, int
             const double fb = static_cast<double>(v[G.index(b[0], b[1], b[2])]);
             const double fp = static_cast<double>(v[G.index(p[0], p[1], p[2])]);
             const double d = std::fabs(fp - 0.5 * (fa + fb));
-            if (!(d <= best)) best = d;  // NaN propagates
+            if (!(d <= best) && !std::isnan(best)) best = d;  // a NaN wins and stays
         }
     }
     return quantize_error(static_cast<float>(best), m);
+}
+
+/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
+/// all its tets are in B and every point they touch is available, so the scan
+/// is the closed-form edge list of its sign pattern over precomputed offsets.
+/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
+template <class T>
+uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t off[27], int m) {
+    if constexpr (std::is_integral_v<T>) {
+        int64_t best = 0;
+        for (int i = 0; i < E.n; ++i) {
+            const int64_t d = 2 * int64_t(c[off[E.m[i]]]) - int64_t(c[off[E.a[i]]]) - int64_t(c[off[E.b[i]]]);
+            best = std::max(best, d < 0 ? -d : d);
+        }
+        return quantize_error(static_cast<float>(double(best) * 0.5), m);
+    } else {
+        double best = 0.0;
+        for (int i = 0; i < E.n; ++i) {
+            const double fa = static_cast<double>(c[off[E.a[i]]]);
+            const double fb = static_cast<double>(c[off[E.b[i]]]);
+            const double fp = static_cast<double>(c[off[E.m[i]]]);
+            const double d = std::fabs(fp - 0.5 * (fa + fb));
+            if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
+            best = std::max(best, d);
+        }
+        return quantize_error(static_cast<float>(best), m);
+    }
+}
+
+/// lattice_bound_code for a diamond inside B (c ± h in B) near its chunk's
+/// faces: the closed-form edge list, skipping edges with a point that is not
+/// available (neither coarser than cycle t nor in the chunk's box).
+template <class T>
+uint32_t lattice_bound_near_face(const T* c, const DiamondEdges& E, const int64_t off[27], uint32_t avail, int m) {
+    double best = 0.0;
+    for (int i = 0; i < E.n; ++i) {
+        if (!((avail >> E.a[i]) & (avail >> E.b[i]) & (avail >> E.m[i]) & 1u)) continue;
+        const double fa = static_cast<double>(c[off[E.a[i]]]);
+        const double fb = static_cast<double>(c[off[E.b[i]]]);
+        const double fp = static_cast<double>(c[off[E.m[i]]]);
+        const double d = std::fabs(fp - 0.5 * (fa + fb));
+        if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
+        best = std::max(best, d);
+    }
+    return quantize_error(static_cast<float>(best), m);
+}
+
+template <class T>
+uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, int64_t y,
+                             int64_t z, int64_t idx, int m) {
+    const DiamondEdges& E = diamond_edge_table().by_sig[sig_code(x, y, z, F.h)];
+    if (F.interior(x, y, z)) return lattice_bound_interior(v + idx, E, F.off, m);
+    const int64_t h = F.h;
+    const int64_t c[3] = {x, y, z};
+    bool in_b = true;
+    for (int a = 0; a < 3; ++a) in_b = in_b && c[a] - h >= 0 && c[a] + h <= G.box_max[a];
+    if (!in_b) return lattice_bound_code(G, v, t, x, y, z, F.cb, m);
+    // Per axis and offset o in {-1, 0, 1}: coarse (even multiple of h) and in the chunk's box.
+    bool even[3][3], inside[3][3];
+    for (int a = 0; a < 3; ++a)
+        for (int o = -1; o <= 1; ++o) {
+            const int64_t p = c[a] + o * h;
+            even[a][o + 1] = (p & h) == 0;
+            inside[a][o + 1] = p >= F.cb[a] && p <= F.cb[3 + a];
+        }
+    uint32_t avail = 0;
+    for (int oz = 0; oz < 3; ++oz)
+        for (int oy = 0; oy < 3; ++oy)
+            for (int ox = 0; ox < 3; ++ox)
+                if ((even[0][ox] && even[1][oy] && even[2][oz]) || (inside[0][ox] && inside[1][oy] && inside[2][oz]))
+                    avail |= 1u << (ox + 3 * oy + 9 * oz);
+    return lattice_bound_near_face(v + idx, E, F.off, avail, m);
 }
 
 template <class T>
@@ -579,7 +815,9 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, cons
     std::vector<std::byte> out;
     if (c.diamonds == 0) return out;
     auto models = std::make_unique<ErrorModels>();
-    ChunkLattice lat(c.cycle, c.box);
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
     rc::Encoder enc(out);
     const uint32_t qmax = max_error_code(m);
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
@@ -587,15 +825,15 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, cons
         const uint32_t q = quantize_error(e[G.index(x, y, z)], m);
         enc.encode(models->inf[cls][far], q == qmax);
         if (q == qmax) {
-            lat.set(x, y, z, 0);
+            lat.set(lat.slot(x, y, z), 0);
             return;
         }
-        const uint32_t lb = lattice_bound_code(G, v, c.cycle, x, y, z, c.box, m);
+        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
         const int64_t delta = int64_t(q) - int64_t(lb);
         const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
-        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(x, y, z)));
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));
         rc::encode_int(enc, models->m[cls][lb != 0][nb], mag, delta < 0, 16);
-        lat.set(x, y, z, mag);
+        lat.set(lat.slot(x, y, z), mag);
     });
     enc.finish();
     return out;
@@ -607,7 +845,9 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e,
                            std::span<const std::byte> in) {
     if (c.diamonds == 0) return in.empty();
     auto models = std::make_unique<ErrorModels>();
-    ChunkLattice lat(c.cycle, c.box);
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
     rc::Decoder dec(in.data(), in.size());
     const uint32_t qmax = max_error_code(m);
     bool ok = true;
@@ -616,11 +856,11 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e,
         float& out = e[G.index(x, y, z)];
         if (dec.decode(models->inf[cls][far])) {
             out = std::numeric_limits<float>::infinity();
-            lat.set(x, y, z, 0);
+            lat.set(lat.slot(x, y, z), 0);
             return;
         }
-        const uint32_t lb = lattice_bound_code(G, v, c.cycle, x, y, z, c.box, m);
-        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(x, y, z)));
+        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));
         uint64_t mag;
         bool neg;
         rc::decode_int(dec, models->m[cls][lb != 0][nb], mag, neg, 16);
@@ -631,7 +871,7 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e,
         } else {
             out = dequantize_error(uint16_t(q), m);
         }
-        lat.set(x, y, z, mag);
+        lat.set(lat.slot(x, y, z), mag);
     });
     return ok && !dec.bad_end();
 }
