@@ -199,24 +199,30 @@ private:
                 }
             if (!ready) continue;
             stack_.pop_back();
+            // Interior diamond: its children's errors are read next; start those
+            // (scattered) loads before the bookkeeping of the split.
+            const auto& m = dom_.box_max;
+            const bool interior = c[0] - d.h >= 0 && c[1] - d.h >= 0 && c[2] - d.h >= 0 &&
+                                  c[0] + d.h <= m[0] && c[1] + d.h <= m[1] && c[2] + d.h <= m[2];
+            Pt ch[8];
+            int nch = 0;
+            if (interior && d.level + 1 < dom_.max_level()) {
+                nch = ht::diamond_children(c, d, dom_.L, ch);
+                for (int i = 0; i < nch; ++i) __builtin_prefetch(&err_[index(ch[i])]);
+            }
             mark_split(c);
-            if (!enqueue_children_fast(c, d)) enqueue_children(c, d);
+            if (!interior || !enqueue_children_fast(ch, nch)) enqueue_children(c, d);
         }
     }
 
     /// Interior diamonds (all tets, hence all children tets, inside B): the
     /// children tets of the diamond belong to its child diamonds, so under a
     /// bound that does not depend on the tet, a child diamond must split exactly
-    /// when its error exceeds the bound. Returns false to ask for the per-tet path
-    /// (boundary diamonds, or a child whose verdict depends on the region test).
-    bool enqueue_children_fast(const Pt& c, const DiamondInfo& d) {
-        const auto& m = dom_.box_max;
-        if (c[0] - d.h < 0 || c[1] - d.h < 0 || c[2] - d.h < 0 || c[0] + d.h > m[0] ||
-            c[1] + d.h > m[1] || c[2] + d.h > m[2])
-            return false;
-        if (d.level + 1 >= dom_.max_level()) return true;  // children are unit tets
-        Pt ch[8];
-        const int n = ht::diamond_children(c, d, dom_.L, ch);
+    /// when its error exceeds the bound. `ch` holds the child diamonds (none when
+    /// they are unit tets). Returns false to ask for the per-tet path: a child
+    /// whose verdict depends on the region test.
+    bool enqueue_children_fast(const Pt ch[8], int n) {
+        // n == 0 also when the children are unit tets (always ok)
         int pushed = 0;
         Pt todo[8];
         for (int i = 0; i < n; ++i) {
