@@ -15,7 +15,7 @@
 namespace tetlod::tlod {
 
 bool is_known_section_type(uint32_t type) {
-    return type >= kSectionMetadata && type <= kSectionHtErrors;
+    return type >= kSectionMetadata && type <= kSectionMtStructure;
 }
 
 const char* section_type_name(uint32_t type) {
@@ -24,6 +24,8 @@ const char* section_type_name(uint32_t type) {
         case kSectionHtHeader: return "HT_HEADER";
         case kSectionHtField: return "HT_FIELD";
         case kSectionHtErrors: return "HT_ERRORS";
+        case kSectionMtHeader: return "MT_HEADER";
+        case kSectionMtStructure: return "MT_STRUCTURE";
     }
     return "UNKNOWN";
 }

@@ -225,7 +225,7 @@ TEST(Robustness, HostileHeaders) {
     }
     {  // unknown required feature
         auto g = f;
-        store_le(g.data() + 16, 0x3, 8);
+        store_le(g.data() + 16, 0x5, 8);  // bit 2: not defined
         reseal_header(g);
         EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedFeature);
     }

@@ -987,8 +987,10 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     const auto& secs = r.sections();
     // Known sections in their required order; unknown non-critical ones skipped.
     std::vector<std::size_t> known;
+    // (The MT's sections, spec §10, follow the HT's and are not part of its layout.)
     for (std::size_t i = 0; i < secs.size(); ++i)
-        if (tlod::is_known_section_type(secs[i].type)) known.push_back(i);
+        if (tlod::is_known_section_type(secs[i].type) && secs[i].type <= tlod::kSectionHtErrors)
+            known.push_back(i);
     if (known.empty() || secs[known[0]].type != tlod::kSectionMetadata)
         return fail(ErrorCode::CorruptData, where + "METADATA must be the first known section");
     auto mraw = r.read_section(known[0]);

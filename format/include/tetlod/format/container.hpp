@@ -21,8 +21,11 @@ inline constexpr uint16_t kVersion1_0_Minor = 0;
 /// 2.0: HT residual coding 2 (adaptive binary range coder, class-ordered chunks).
 inline constexpr uint16_t kVersion2_0_Major = 2;
 inline constexpr uint16_t kVersion2_0_Minor = 0;
-inline constexpr uint16_t kVersionMajor = kVersion2_0_Major;  // what this library writes
-inline constexpr uint16_t kVersionMinor = kVersion2_0_Minor;
+/// 2.1: the MT model (feature bit 1, MT_HEADER and MT_STRUCTURE sections).
+inline constexpr uint16_t kVersion2_1_Major = 2;
+inline constexpr uint16_t kVersion2_1_Minor = 1;
+inline constexpr uint16_t kVersionMajor = kVersion2_1_Major;  // what this library writes
+inline constexpr uint16_t kVersionMinor = kVersion2_1_Minor;
 /// Oldest major version this library still reads (1.x files decode unchanged).
 inline constexpr uint16_t kOldestReadableMajor = kVersion1_0_Major;
 /// "tlod-format 2.0": for --version output.
@@ -35,7 +38,10 @@ inline constexpr uint32_t kTableEntrySize = 48;
 // ---- feature flags (header) ----
 /// Required: the file holds a Hierarchy of Tetrahedra (HT_HEADER + HT_FIELD + HT_ERRORS).
 inline constexpr uint64_t kFeatureHt = uint64_t{1} << 0;
-inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt;
+/// The file holds an edge-collapse Multi-Tessellation (MT_HEADER + MT_STRUCTURE).
+/// Required when the file holds no HT; optional (skippable) next to an HT.
+inline constexpr uint64_t kFeatureMt = uint64_t{1} << 1;
+inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt;
 
 // ---- section types ----
 enum SectionType : uint32_t {
@@ -43,6 +49,8 @@ enum SectionType : uint32_t {
     kSectionHtHeader = 2,
     kSectionHtField = 3,
     kSectionHtErrors = 4,
+    kSectionMtHeader = 5,
+    kSectionMtStructure = 6,
 };
 /// Whether this library knows the section type (unknown, non-critical ones are skipped).
 bool is_known_section_type(uint32_t type);

@@ -1,0 +1,132 @@
+// The MT in the container (spec/tlod-format.md §10): HT+MT and MT-only files
+// round trip (extraction from the loaded MT equals extraction from the built MT
+// after its own codec round trip, whose upward-rounded errors the container
+// keeps), the HT of an HT+MT file still decodes, and every prefix and every
+// single-bit flip of a file with MT sections fails cleanly.
+#include <gtest/gtest.h>
+
+#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/format/metadata.hpp"
+#include "tlod_test_util.hpp"
+
+using namespace tetlod;
+using namespace tetlod::tlod;
+
+namespace {
+
+struct Fixture {
+    Volume vol;
+    MtModel mt;
+    std::vector<std::byte> both, mt_only;
+};
+
+Fixture make(Dims d, ValueType t) {
+    Fixture f;
+    f.vol = tlodtest::make_volume(d, t, 11);
+    f.vol.metadata["user.note"] = "mt";
+    f.mt = MtModel::build(f.vol);
+    const Metadata meta = metadata_for_volume(f.vol);
+    {
+        ContainerWriter w;
+        encode_ht(HtModel::build(f.vol), meta, w);
+        encode_mt_container(f.mt, meta, w, true);
+        f.both = w.finish();
+    }
+    {
+        ContainerWriter w;
+        encode_mt_container(f.mt, meta, w, false);
+        f.mt_only = w.finish();
+    }
+    return f;
+}
+
+std::vector<LodQuery> queries(const Volume& v) {
+    const auto r = v.range();
+    std::vector<LodQuery> qs(4);
+    qs[0].full = true;
+    qs[1].error_in = 0.0;
+    qs[2].error_in = 0.05 * (r[1] - r[0]);
+    qs[3].error_in = 0.0, qs[3].error_out = 0.2 * (r[1] - r[0]);
+    qs[3].box = std::array<int64_t, 6>{1, 1, 1, 3, 3, 3};
+    return qs;
+}
+
+void expect_same_meshes(const MtModel& a, const MtModel& b, const Volume& v) {
+    for (const LodQuery& q : queries(v)) {
+        const TetMesh ma = a.extract(q), mb = b.extract(q);
+        EXPECT_TRUE(ma.points == mb.points);
+        EXPECT_TRUE(ma.tets == mb.tets);
+    }
+}
+
+Expected<MtModel> load(std::span<const std::byte> f) {
+    auto r = ContainerReader::from_memory(f);
+    if (!r) return r.failure();
+    return decode_mt_container(*r);
+}
+
+/// Everything the file holds, as `verify` reads it: the MT, and the HT with its
+/// errors when there is one (loading the MT alone skips HT_ERRORS, by design).
+bool reads_whole(std::span<const std::byte> f) {
+    if (!load(f).ok()) return false;
+    auto r = ContainerReader::from_memory(f);
+    if (!(r->header().required_features & kFeatureHt)) return true;
+    return decode_ht(*r).ok();
+}
+
+}  // namespace
+
+TEST(MtContainer, RoundTripWithHtAndAlone) {
+    for (ValueType t : {ValueType::U8, ValueType::I16, ValueType::F32}) {
+        SCOPED_TRACE(value_type_name(t));
+        const Fixture f = make({9, 7, 6}, t);
+        // Reference: the built MT through its own codec (errors rounded up, m = 7).
+        auto ref = decode_mt(encode_mt(f.mt, MtEncodeOptions{.include_field = true}));
+        ASSERT_TRUE(ref.ok());
+        for (const auto* file : {&f.both, &f.mt_only}) {
+            auto m = load(*file);
+            ASSERT_TRUE(m.ok()) << m.failure().message;
+            EXPECT_TRUE(m->field().data == f.vol.data);
+            EXPECT_TRUE(m->base_tets() == f.mt.base_tets());
+            expect_same_meshes(*m, *ref, f.vol);
+            const TetMesh full = m->extract(LodQuery{.full = true});
+            EXPECT_EQ(int64_t(full.tet_count()), 5 * int64_t(8 * 6 * 5));
+        }
+        // Features: optional next to an HT, required alone; the HT still decodes.
+        auto rb = ContainerReader::from_memory(f.both);
+        ASSERT_TRUE(rb.ok());
+        EXPECT_EQ(rb->header().required_features, kFeatureHt);
+        EXPECT_EQ(rb->header().optional_features, kFeatureMt);
+        auto v = decode_volume(*rb);
+        ASSERT_TRUE(v.ok()) << v.failure().message;
+        EXPECT_TRUE(v->data == f.vol.data);
+        auto ro = ContainerReader::from_memory(f.mt_only);
+        ASSERT_TRUE(ro.ok());
+        EXPECT_EQ(ro->header().required_features, kFeatureMt);
+        EXPECT_EQ(read_ht_layout(*ro).failure().code, ErrorCode::NotFound);
+        // An HT-only file has no MT.
+        ContainerWriter w;
+        encode_ht(HtModel::build(f.vol), metadata_for_volume(f.vol), w);
+        EXPECT_EQ(load(w.finish()).failure().code, ErrorCode::NotFound);
+    }
+}
+
+TEST(MtContainer, EveryPrefixFailsCleanly) {
+    const Fixture f = make({6, 5, 4}, ValueType::U8);
+    for (const auto* file : {&f.both, &f.mt_only})
+        for (std::size_t n = 0; n < file->size(); ++n)
+            EXPECT_FALSE(load(std::span<const std::byte>(file->data(), n)).ok()) << "prefix " << n;
+}
+
+TEST(MtContainer, EverySingleBitFlipIsDetected) {
+    const Fixture f = make({6, 5, 4}, ValueType::U8);
+    for (const auto* file : {&f.both, &f.mt_only})
+        for (std::size_t i = 0; i < file->size(); ++i)
+            for (int b = 0; b < 8; ++b) {
+                auto g = *file;
+                g[i] ^= std::byte(uint8_t(1u << b));
+                EXPECT_FALSE(reads_whole(g)) << "byte " << i << " bit " << b;
+            }
+}
