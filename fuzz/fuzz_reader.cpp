@@ -1,10 +1,12 @@
 // libFuzzer target: the .tlod reader on arbitrary bytes (header, table,
-// metadata, HT layout, full decode). Must never crash, hang or read out of bounds.
+// metadata, HT layout, full decode, MT sections and an MT extraction). Must never
+// crash, hang or read out of bounds.
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
 #include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -14,5 +16,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (std::size_t i = 0; i < r->sections().size(); ++i) (void)r->read_section(i);
     auto r2 = tetlod::tlod::ContainerReader::from_memory(bytes);
     (void)tetlod::decode_ht(*r2);
+    auto r3 = tetlod::tlod::ContainerReader::from_memory(bytes);
+    if (auto m = tetlod::decode_mt_container(*r3); m.ok()) {
+        tetlod::LodQuery q;
+        q.error_in = 0.0;
+        try {
+            (void)m->extract(q);  // may throw CorruptData on an inconsistent MT, never crash
+        } catch (const tetlod::Error&) {
+        }
+    }
     return 0;
 }

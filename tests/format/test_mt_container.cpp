@@ -5,7 +5,15 @@
 // single-bit flip of a file with MT sections fails cleanly.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/core/atomic_file.hpp"
 #include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
@@ -129,4 +137,60 @@ TEST(MtContainer, EverySingleBitFlipIsDetected) {
                 g[i] ^= std::byte(uint8_t(1u << b));
                 EXPECT_FALSE(reads_whole(g)) << "byte " << i << " bit " << b;
             }
+}
+
+namespace {
+
+/// Expected contents of an MT test vector: counts and the tet counts of three
+/// extractions, as text (compared verbatim).
+std::string mt_summary(const MtModel& m) {
+    std::ostringstream o;
+    const auto r = m.field().range();
+    o << "{\n  \"base_tets\": " << m.base_tets().size() << ",\n  \"updates\": " << m.updates().size() << ",\n";
+    o << "  \"tets_full\": " << m.extract(LodQuery{.full = true}).tet_count() << ",\n";
+    LodQuery q0;
+    q0.error_in = 0.0;
+    o << "  \"tets_error_0\": " << m.extract(q0).tet_count() << ",\n";
+    LodQuery q1;
+    q1.error_in = 0.1 * (r[1] - r[0]);
+    o << "  \"tets_error_10pct_of_range\": " << m.extract(q1).tet_count() << "\n}\n";
+    return o.str();
+}
+
+}  // namespace
+
+// spec/test-vectors/{ht_mt,mt}_v2.1_*: NAME.tlod, NAME.raw (the field), NAME.mt.json
+// (what the MT holds and extracts). Regenerated with TETLOD_REGENERATE_VECTORS=1.
+TEST(TestVectors, MtVectorsDecodeToTheirStoredContents) {
+    const std::string dir = std::string(TETLOD_SPEC_DIR) + "/test-vectors/";
+    struct V { const char* name; bool with_ht; };
+    for (const V v : {V{"ht_mt_v2.1_u8_9x6x5", true}, V{"mt_v2.1_i16_6x5x4", false}}) {
+        const std::string base = dir + v.name;
+        if (std::getenv("TETLOD_REGENERATE_VECTORS")) {
+            Volume vol = tlodtest::make_volume(v.with_ht ? Dims{9, 6, 5} : Dims{6, 5, 4},
+                                               v.with_ht ? ValueType::U8 : ValueType::I16, 42);
+            vol.metadata["sample.purpose"] = "tlod MT test vector";
+            Metadata meta = metadata_for_volume(vol);
+            meta.format_keys[kKeyConverter] = "tests/format/test_mt_container.cpp";
+            ContainerWriter w;
+            if (v.with_ht) {
+                HtEncodeOptions eo;
+                eo.brick_log2 = 1;
+                encode_ht(HtModel::build(vol), meta, w, eo);
+            }
+            const MtModel mt = MtModel::build(vol);
+            encode_mt_container(mt, meta, w, v.with_ht);
+            w.write(base + ".tlod");
+            write_file_atomic(base + ".raw", vol.data.data(), vol.data.size());
+            const std::string js = mt_summary(load_mt_model(base + ".tlod"));
+            write_file_atomic(base + ".mt.json", js.data(), js.size());
+        }
+        if (!std::filesystem::exists(base + ".tlod")) GTEST_SKIP() << "no MT test vectors in " << dir;
+        const MtModel m = load_mt_model(base + ".tlod");
+        std::ifstream raw(base + ".raw", std::ios::binary), js(base + ".mt.json");
+        const std::string rs((std::istreambuf_iterator<char>(raw)), {}), jss((std::istreambuf_iterator<char>(js)), {});
+        ASSERT_EQ(rs.size(), m.field().data.size());
+        EXPECT_EQ(0, std::memcmp(rs.data(), m.field().data.data(), rs.size())) << v.name;
+        EXPECT_EQ(jss, mt_summary(m)) << v.name;
+    }
 }
