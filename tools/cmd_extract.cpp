@@ -11,6 +11,7 @@
 #include "extract_tlod.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/codec/mt/mt_model.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/core/error.hpp"
 
@@ -36,9 +37,11 @@ void check_box_meets(const std::array<int64_t, 6>& b, const Dims& dims, const st
 }
 
 int run_extract(const ExtractArgs& a) {
-    if (a.model != "ht")
-        throw Error(ErrorCode::UnsupportedFeature,
-                    "--model " + a.model + ": the MT model is not yet available; use --model ht");
+    const bool mt = a.model == "mt";
+    if (mt && a.pad)
+        throw Error(ErrorCode::InvalidArgument,
+                    "--pad applies to the HT only (the MT always covers the data's bounding box): "
+                    "drop --pad or use --model ht");
     if (!a.full && a.error.empty())
         throw Error(ErrorCode::InvalidArgument,
                     "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
@@ -52,6 +55,10 @@ int run_extract(const ExtractArgs& a) {
     const auto error_out =
         ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
 
+    if (mt && is_tlod_file(a.input))
+        throw Error(ErrorCode::UnsupportedFeature,
+                    "'" + a.input + "': --model mt on a .tlod container is not available yet; "
+                    "give the volume itself to build the MT, or use --model ht");
     if (is_tlod_file(a.input)) {  // containers: lazy extraction, no model build
         TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
         t.query.full = a.full;
@@ -72,19 +79,47 @@ int run_extract(const ExtractArgs& a) {
     }
     for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
 
-    HtBuildOptions build_options;
-    build_options.pad = a.pad;
-    Stopwatch build_clock;
-    const HtModel model = HtModel::build(std::move(volume), build_options);
-    const double build_seconds = build_clock.seconds();
-    const auto range = model.value_range();
-    query.error_in = error_in.resolve(range);
-    query.error_out = error_out.resolve(range);
+    TetMesh mesh;
+    std::array<double, 2> range{0, 0};
+    double build_seconds = 0, extract_seconds = 0, max_error = 0;
+    std::string model_detail;
+    if (mt) {  // MT: built by edge collapse from the volume, same query
+        Stopwatch build_clock;
+        const MtModel model = MtModel::build(std::move(volume));
+        build_seconds = build_clock.seconds();
+        range = model.value_range();
+        query.error_in = error_in.resolve(range);
+        query.error_out = error_out.resolve(range);
+        MtExtractStats stats;
+        Stopwatch extract_clock;
+        mesh = model.extract(query, &stats);
+        extract_seconds = extract_clock.seconds();
+        max_error = stats.max_error;
+        model_detail = "model: MT, " + std::to_string(model.updates().size()) + " vertex splits, " +
+                       std::to_string(model.base_tets().size()) + " base tets; " +
+                       std::to_string(stats.splits) + " splits applied (" +
+                       std::to_string(stats.forced_splits) + " forced), " +
+                       std::to_string(stats.visited_tets) + " tets visited";
+    } else {
+        HtBuildOptions build_options;
+        build_options.pad = a.pad;
+        Stopwatch build_clock;
+        const HtModel model = HtModel::build(std::move(volume), build_options);
+        build_seconds = build_clock.seconds();
+        range = model.value_range();
+        query.error_in = error_in.resolve(range);
+        query.error_out = error_out.resolve(range);
 
-    HtExtractStats stats;
-    Stopwatch extract_clock;
-    const TetMesh mesh = model.extract(query, &stats);
-    const double extract_seconds = extract_clock.seconds();
+        HtExtractStats stats;
+        Stopwatch extract_clock;
+        mesh = model.extract(query, &stats);
+        extract_seconds = extract_clock.seconds();
+        max_error = stats.max_error;
+        model_detail = "model: HT, cube side 2^" + std::to_string(model.domain().k) +
+                       (model.domain().padded ? " (padded)" : "") + ", " +
+                       std::to_string(stats.split_diamonds) + " diamonds split, " +
+                       std::to_string(stats.visited_tets) + " tets visited";
+    }
 
     MeshWriteOptions write_options;
     write_options.compress = !a.no_compress;
@@ -108,16 +143,13 @@ int run_extract(const ExtractArgs& a) {
         o << "\n";
     }
     o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
-      << " vertices, largest error " << format_error(stats.max_error, range) << "\n";
+      << " vertices, largest error " << format_error(max_error, range) << "\n";
     o << "time     build " << format_seconds(build_seconds) << ", extract "
       << format_seconds(extract_seconds) << ", write " << format_seconds(write_seconds) << "\n";
     std::error_code ec;
     const auto size = std::filesystem::file_size(a.output, ec);
     o << "wrote    " << a.output << " (" << (ec ? std::string("?") : format_bytes(size)) << ")\n";
-    detail("model: cube side 2^" + std::to_string(model.domain().k) +
-           (model.domain().padded ? " (padded)" : "") + ", " +
-           std::to_string(stats.split_diamonds) + " diamonds split, " +
-           std::to_string(stats.visited_tets) + " tets visited");
+    detail(model_detail);
     return 0;
 }
 
@@ -153,7 +185,9 @@ const CommandRegistration registration{Command{
         sub.add_flag("--full", a->full, "Full-resolution reference mesh")->group(lod);
 
         const std::string model = "Model and output";
-        sub.add_option("--model", a->model, "Multiresolution model: ht (mt: not yet available)")
+        sub.add_option("--model", a->model,
+                       "Multiresolution model: ht (Hierarchy of Tetrahedra) or mt "
+                       "(Multi-Tessellation, volume inputs)")
             ->group(model)
             ->capture_default_str()
             ->check(CLI::IsMember({"ht", "mt"}));
@@ -170,7 +204,8 @@ const CommandRegistration registration{Command{
             "  tetlod extract bucky_32x32x32_uint8.raw bucky.vtu --error 1%\n"
             "  tetlod extract head.raw head.vtu --dims 256,256,99 --dtype u16 \\\n"
             "      --error 0 --box 64,64,20,192,192,80 --error-out 5%\n"
-            "  tetlod extract ml_65x65x65_uint8.raw iso.vtk --isovalue 128 --error 0.5\n");
+            "  tetlod extract ml_65x65x65_uint8.raw iso.vtk --isovalue 128 --error 0.5\n"
+            "  tetlod extract ml_65x65x65_uint8.raw ml_mt.vtu --model mt --error 1%\n");
         return [a] { return run_extract(*a); };
     }}};
 
