@@ -12,6 +12,8 @@
 // never output nor split for their own sake; tets crossing B's far faces always
 // violate. Diamonds centred outside B therefore never need an error (all their
 // tets cross or lie outside); their split marks live in a small hash set.
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -38,6 +40,11 @@ struct PendingTet {
     Tet v;
     uint8_t level;
 };
+
+// The emit walk is cut into subtrees at this level (<= 6 * 2^12 subtrees).
+constexpr int kEmitCutLevel = 12;
+// Below this many split diamonds the mesh is small: emit on the calling thread.
+constexpr uint64_t kParallelEmitMinSplits = 20000;
 
 uint64_t pack(const Pt& p) {
     return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
@@ -88,13 +95,7 @@ public:
             force(c);
         }
         const auto t1 = std::chrono::steady_clock::now();
-        // ~6 tets per vertex in HT meshes; reserving avoids regrowth copies.
-        const std::size_t expect = 6 * mesh_.points.size() + 64;
-        mesh_.tets.reserve(expect);
-        mesh_.level.reserve(expect);
-        mesh_.error.reserve(expect);
-        for (const auto& r : roots)
-            emit(r, /*inside=*/false, ht::orient(r.v[0], r.v[1], r.v[2], r.v[3]) > 0);
+        emit_all(roots);
         fill_values();
         const auto t2 = std::chrono::steady_clock::now();
         if (stats) {
@@ -278,12 +279,90 @@ private:
         }
     }
 
+    /// Output of one stretch of the bisection tree.
+    struct EmitBuffer {
+        std::vector<std::array<uint32_t, 4>> tets;
+        std::vector<uint8_t> level;
+        std::vector<float> error;
+        uint64_t visited = 0;
+        double max_error = 0;
+    };
+    /// A subtree root (or a leaf) of the tree walk, in depth-first order.
+    struct EmitItem {
+        ht::MTet t;
+        bool inside, positive;
+    };
+
+    /// Phase 2. The walk is cut at a fixed depth into subtrees, emitted in
+    /// parallel into per-chunk buffers and concatenated in depth-first order, so
+    /// the mesh is the same whatever the number of threads.
+    void emit_all(const ht::MTet roots[6]) {
+        std::vector<EmitItem> items;
+        const int cut = std::min(dom_.max_level(), kEmitCutLevel);
+        for (int r = 0; r < 6; ++r)
+            collect(roots[r], false, ht::orient(roots[r].v[0], roots[r].v[1], roots[r].v[2],
+                                                roots[r].v[3]) > 0,
+                    cut, items);
+        const std::size_t chunks = std::min<std::size_t>(items.size(), 256);
+        std::vector<EmitBuffer> out(std::max<std::size_t>(chunks, 1));
+        auto run_chunk = [&](std::size_t k) {
+            const std::size_t b = items.size() * k / chunks, e = items.size() * (k + 1) / chunks;
+            for (std::size_t i = b; i < e; ++i)
+                emit(items[i].t, items[i].inside, items[i].positive, out[k]);
+        };
+        if (chunks > 1 && split_count_ > kParallelEmitMinSplits)
+            tbb::parallel_for(std::size_t(0), chunks, run_chunk);
+        else
+            for (std::size_t k = 0; k < chunks; ++k) run_chunk(k);
+        std::size_t total = 0;
+        for (const auto& o : out) total += o.tets.size();
+        mesh_.tets.reserve(total);
+        mesh_.level.reserve(total);
+        mesh_.error.reserve(total);
+        for (const auto& o : out) {
+            mesh_.tets.insert(mesh_.tets.end(), o.tets.begin(), o.tets.end());
+            mesh_.level.insert(mesh_.level.end(), o.level.begin(), o.level.end());
+            mesh_.error.insert(mesh_.error.end(), o.error.begin(), o.error.end());
+            visited_ += o.visited;
+            max_error_ = std::max(max_error_, o.max_error);
+        }
+        visited_ += items.size();
+    }
+
+    /// Walks down to the cut level, recording subtree roots and leaves above it.
+    void collect(const ht::MTet& t, bool inside, bool positive, int cut,
+                 std::vector<EmitItem>& items) const {
+        if (t.level >= cut) {
+            items.push_back({t, inside, positive});
+            return;
+        }
+        bool refine = false;
+        if (!inside) {
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) return;
+            refine = rel == BoxRelation::Crossing;
+            inside = !refine;
+        }
+        if (!refine) {
+            const int64_t centre = index(ht::maubach_centre(t));
+            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
+        }
+        if (!refine) {
+            items.push_back({t, inside, positive});  // a leaf: emit() outputs it
+            return;
+        }
+        ht::MTet c1, c2;
+        ht::maubach_bisect(t, c1, c2);
+        collect(c1, inside, positive, cut, items);
+        collect(c2, inside, t.tag == 2 ? positive : !positive, cut, items);
+    }
+
     /// `inside`: the tet is known to lie inside B (then so do its descendants).
     /// `positive`: its vertex order is positively oriented. Maubach's children
     /// keep the parent's orientation (first child) or flip it when the tag is 3
     /// or 1 (second child), so no determinant is needed per tet.
-    void emit(const ht::MTet& t, bool inside, bool positive) {
-        ++visited_;
+    void emit(const ht::MTet& t, bool inside, bool positive, EmitBuffer& out) const {
+        ++out.visited;
         bool refine = false;
         if (!inside) {
             const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
@@ -297,23 +376,23 @@ private:
             refine = (split_[centre >> 6] >> (centre & 63)) & 1;
         }
         if (!refine) {
-            output(t, positive, centre < 0 ? 0.0f : err_[centre]);  // unit tets: no error
+            output(t, positive, centre < 0 ? 0.0f : err_[centre], out);  // unit tets: no error
             return;
         }
         ht::MTet c1, c2;
         ht::maubach_bisect(t, c1, c2);
-        emit(c1, inside, positive);
-        emit(c2, inside, t.tag == 2 ? positive : !positive);
+        emit(c1, inside, positive, out);
+        emit(c2, inside, t.tag == 2 ? positive : !positive, out);
     }
 
-    void output(const ht::MTet& t, bool positive, float err) {
+    void output(const ht::MTet& t, bool positive, float err, EmitBuffer& out) const {
         std::array<uint32_t, 4> ids;
         for (int i = 0; i < 4; ++i) ids[i] = vertex_id_[index(t.v[i])];
         if (!positive) std::swap(ids[2], ids[3]);
-        mesh_.tets.push_back(ids);
-        mesh_.level.push_back(t.level);
-        mesh_.error.push_back(err);
-        max_error_ = std::max(max_error_, double(err));
+        out.tets.push_back(ids);
+        out.level.push_back(t.level);
+        out.error.push_back(err);
+        out.max_error = std::max(out.max_error, double(err));
     }
 
     const HtDomain& dom_;
