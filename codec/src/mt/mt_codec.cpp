@@ -114,7 +114,7 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     const std::vector<std::byte> z = tlod::zstd_compress(raw, opt.zstd_level);
     std::vector<uint8_t> out;
     out.reserve(kHeaderSize + z.size());
-    out.insert(out.end(), {'T', 'L', 'M', 'T'});
+    for (char c : {'T', 'L', 'M', 'T'}) out.push_back(uint8_t(c));  // (insert trips a GCC 12 false -Wstringop-overflow)
     put_le(out, kMtCodecVersion, 2);
     put_le(out, opt.include_field ? 1 : 0, 2);
     put_le(out, uint64_t(D.x), 4), put_le(out, uint64_t(D.y), 4), put_le(out, uint64_t(D.z), 4);
