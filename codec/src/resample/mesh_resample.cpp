@@ -26,27 +26,37 @@ i128 signed_volume(const std::array<std::array<int64_t, 3>, 4>& v) {
 }
 
 // floor(a / b), b > 0.
-i128 floor_div(i128 a, i128 b) {
-    i128 q = a / b;
+template <class I>
+I floor_div(I a, I b) {
+    I q = a / b;
     if (a % b != 0 && a < 0) --q;
     return q;
 }
-// ceil(a / b), b > 0.
-i128 ceil_div(i128 a, i128 b) { return -floor_div(-a, b); }
+template <class I>
+I ceil_div(I a, I b) { return -floor_div<I>(-a, b); }
+
+constexpr i128 kI64Max = std::numeric_limits<int64_t>::max();
 
 template <class T>
 struct Writer {
     T* out;
     bool exact_ints;  // integer type and integer vertex values: the rational path
 
-    void put(int64_t idx, const std::array<i128, 4>& n, i128 d, const std::array<double, 4>& f,
+    template <class I>
+    void put(int64_t idx, const std::array<I, 4>& n, I d, const std::array<double, 4>& f,
              const std::array<int64_t, 4>& fi) const {
         if constexpr (std::is_integral_v<T>) {
             if (exact_ints) {
                 i128 num = 0;
-                for (int i = 0; i < 4; ++i) num += n[i] * fi[i];
-                // round(num / d), ties towards +inf: floor((2 num + d) / (2 d)).
-                i128 r = floor_div(2 * num + d, 2 * d);
+                for (int i = 0; i < 4; ++i) num += i128(n[i]) * fi[i];
+                // round(num / d), ties towards +inf: floor((2 num + d) / (2 d)); 64-bit
+                // division whenever the operands fit (the common case).
+                const i128 a = 2 * num + i128(d), b = 2 * i128(d);
+                i128 r;
+                if (a <= kI64Max && a >= -kI64Max && b <= kI64Max)
+                    r = floor_div<int64_t>(int64_t(a), int64_t(b));
+                else
+                    r = floor_div<i128>(a, b);
                 r = std::clamp<i128>(r, std::numeric_limits<T>::min(), std::numeric_limits<T>::max());
                 out[idx] = T(r);
                 return;
@@ -66,6 +76,71 @@ struct Writer {
         }
     }
 };
+
+// One tet, vertices sorted by id, coordinates relative to its bounding box's low
+// corner `lo` (extents `ext`). I = int64_t when every extent is <= 2^20 (then all
+// numerators, at any point of the bounding box, stay below 2^63), else __int128.
+template <class I, class T>
+void scan_tet(const std::array<std::array<int64_t, 3>, 4>& P, i128 D128,
+              const std::array<int64_t, 3>& lo, const std::array<int64_t, 3>& hi,
+              const std::array<double, 4>& f, const std::array<int64_t, 4>& fi, const Writer<T>& w,
+              const Dims& dims, std::vector<uint8_t>& covered) {
+    // N_i(p) = g_i . p + c_i: g_i is the normal of the face opposite v_i, oriented so
+    // that N_i(v_i) = D; c_i = -g_i . (a vertex of that face).
+    std::array<std::array<I, 3>, 4> g;
+    std::array<I, 4> c;
+    I D = I(D128);
+    for (int i = 0; i < 4; ++i) {
+        const auto& a = P[(i + 1) & 3];
+        const auto& b = P[(i + 2) & 3];
+        const auto& e = P[(i + 3) & 3];
+        const I ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+        const I vx = e[0] - a[0], vy = e[1] - a[1], vz = e[2] - a[2];
+        std::array<I, 3> n{uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+        const I s = n[0] * (P[i][0] - a[0]) + n[1] * (P[i][1] - a[1]) + n[2] * (P[i][2] - a[2]);
+        if ((s < 0) != (D < 0))
+            for (auto& x : n) x = -x;
+        g[i] = n;
+        c[i] = -(n[0] * a[0] + n[1] * a[1] + n[2] * a[2]);
+    }
+    if (D < 0) {
+        D = -D;
+        for (int i = 0; i < 4; ++i) {
+            c[i] = -c[i];
+            for (int k = 0; k < 3; ++k) g[i][k] = -g[i][k];
+        }
+    }
+    // Clip the bounding box to the grid.
+    const int64_t z0 = std::max<int64_t>(lo[2], 0), z1 = std::min<int64_t>(hi[2], dims.z - 1);
+    const int64_t y0 = std::max<int64_t>(lo[1], 0), y1 = std::min<int64_t>(hi[1], dims.y - 1);
+    const int64_t xa = std::max<int64_t>(lo[0], 0), xb = std::min<int64_t>(hi[0], dims.x - 1);
+    if (xa > xb) return;
+    for (int64_t z = z0; z <= z1; ++z)
+        for (int64_t y = y0; y <= y1; ++y) {
+            std::array<I, 4> r;
+            I xl = xa - lo[0], xh = xb - lo[0];  // relative x interval
+            for (int i = 0; i < 4; ++i) {
+                r[i] = c[i] + g[i][1] * I(y - lo[1]) + g[i][2] * I(z - lo[2]);
+                const I gx = g[i][0];
+                if (gx > 0)
+                    xl = std::max(xl, ceil_div<I>(-r[i], gx));
+                else if (gx < 0)
+                    xh = std::min(xh, floor_div<I>(r[i], -gx));
+                else if (r[i] < 0)
+                    xh = xl - 1;
+            }
+            if (xl > xh) continue;
+            const int64_t row = dims.index(0, y, z) + lo[0];
+            for (int64_t xr = int64_t(xl); xr <= int64_t(xh); ++xr) {
+                // A point already written got this same value from its other tet.
+                if (covered[std::size_t(row + xr)]) continue;
+                std::array<I, 4> n;
+                for (int i = 0; i < 4; ++i) n[i] = r[i] + g[i][0] * I(xr);
+                w.put(row + xr, n, D, f, fi);
+                covered[std::size_t(row + xr)] = 1;
+            }
+        }
+}
 
 template <class T>
 void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
@@ -99,33 +174,16 @@ void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
                 lo[a] = i == 0 ? P[i][a] : std::min(lo[a], P[i][a]);
                 hi[a] = i == 0 ? P[i][a] : std::max(hi[a], P[i][a]);
             }
-        i128 D = signed_volume(P);
+        // Skip tets entirely outside the grid.
+        if (hi[0] < 0 || hi[1] < 0 || hi[2] < 0 || lo[0] >= dims.x || lo[1] >= dims.y ||
+            lo[2] >= dims.z)
+            continue;
+        for (auto& p : P)
+            for (int a = 0; a < 3; ++a) p[a] -= lo[a];
+        const i128 D = signed_volume(P);
         if (D == 0) {
             ++st.degenerate_tets;
             continue;
-        }
-        // Coordinates relative to the bounding box's low corner.
-        for (auto& p : P)
-            for (int a = 0; a < 3; ++a) p[a] -= lo[a];
-        // N_i(p) = c[i] + g[i] . p, affine: evaluate at 0 and the unit vectors.
-        std::array<i128, 4> c{};
-        std::array<std::array<i128, 3>, 4> g{};
-        for (int i = 0; i < 4; ++i) {
-            auto Q = P;
-            Q[i] = {0, 0, 0};
-            c[i] = signed_volume(Q);
-            for (int a = 0; a < 3; ++a) {
-                Q[i] = {0, 0, 0};
-                Q[i][a] = 1;
-                g[i][a] = signed_volume(Q) - c[i];
-            }
-        }
-        if (D < 0) {
-            D = -D;
-            for (int i = 0; i < 4; ++i) {
-                c[i] = -c[i];
-                for (int a = 0; a < 3; ++a) g[i][a] = -g[i][a];
-            }
         }
         std::array<double, 4> f{};
         std::array<int64_t, 4> fi{};
@@ -133,35 +191,11 @@ void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
             f[i] = mesh.values[ids[i]];
             fi[i] = exact_ints ? int64_t(f[i]) : 0;
         }
-        // Clip the bounding box to the grid.
-        const int64_t z0 = std::max<int64_t>(lo[2], 0), z1 = std::min<int64_t>(hi[2], dims.z - 1);
-        const int64_t y0 = std::max<int64_t>(lo[1], 0), y1 = std::min<int64_t>(hi[1], dims.y - 1);
-        const int64_t xa = std::max<int64_t>(lo[0], 0), xb = std::min<int64_t>(hi[0], dims.x - 1);
-        if (xa > xb) continue;
-        for (int64_t z = z0; z <= z1; ++z)
-            for (int64_t y = y0; y <= y1; ++y) {
-                std::array<i128, 4> r;
-                i128 xl = xa - lo[0], xh = xb - lo[0];  // relative x interval
-                for (int i = 0; i < 4; ++i) {
-                    r[i] = c[i] + g[i][1] * (y - lo[1]) + g[i][2] * (z - lo[2]);
-                    const i128 gx = g[i][0];
-                    if (gx > 0)
-                        xl = std::max(xl, ceil_div(-r[i], gx));
-                    else if (gx < 0)
-                        xh = std::min(xh, floor_div(r[i], -gx));
-                    else if (r[i] < 0)
-                        xh = xl - 1;
-                }
-                if (xl > xh) continue;
-                const int64_t row = dims.index(0, y, z);
-                for (int64_t xr = int64_t(xl); xr <= int64_t(xh); ++xr) {
-                    std::array<i128, 4> n;
-                    for (int i = 0; i < 4; ++i) n[i] = r[i] + g[i][0] * xr;
-                    const int64_t idx = row + lo[0] + xr;
-                    w.put(idx, n, D, f, fi);
-                    covered[std::size_t(idx)] = 1;
-                }
-            }
+        constexpr int64_t kSmall = int64_t{1} << 20;
+        if (hi[0] - lo[0] <= kSmall && hi[1] - lo[1] <= kSmall && hi[2] - lo[2] <= kSmall)
+            scan_tet<int64_t>(P, D, lo, hi, f, fi, w, dims, covered);
+        else
+            scan_tet<i128>(P, D, lo, hi, f, fi, w, dims, covered);
     }
 }
 
