@@ -62,11 +62,12 @@ struct Axis {
     void fit(double mn, double mx, bool zero_based) {
         if (!(mn <= mx)) mn = log ? 1 : 0, mx = log ? 10 : 1;
         if (log) {
+            // A little headroom so no marker sits on the frame.
+            mn /= 1.06, mx *= 1.06;
             lo = std::pow(10, std::floor(std::log10(mn)));
             hi = std::pow(10, std::ceil(std::log10(mx)));
             if (hi <= lo) hi = lo * 10;
-            // Tight ranges look empty in whole decades: use 1-2-5 bounds then.
-            if (hi / lo >= 100) return;
+            // Whole decades leave much empty space: tighten to 1-2-5 bounds.
             for (double m : {5.0, 2.0}) {
                 const double l2 = lo * m;
                 if (l2 <= mn) { lo = l2; break; }
@@ -79,6 +80,7 @@ struct Axis {
         }
         if (zero_based && mn > 0) mn = 0;
         if (mx == mn) mx = mn + 1;
+        mx += 0.03 * (mx - mn);
         const double step = nice_step((mx - mn) / 6);
         lo = std::floor(mn / step) * step;
         hi = std::ceil(mx / step) * step;
@@ -93,14 +95,19 @@ struct Axis {
         std::vector<double> r;
         if (log) {
             const int d0 = int(std::floor(std::log10(lo) + 1e-9)), d1 = int(std::ceil(std::log10(hi) - 1e-9));
-            const bool fine = d1 - d0 <= 2;
-            for (int d = d0; d <= d1; ++d)
-                for (double m : fine ? std::vector<double>{1, 2, 5} : std::vector<double>{1}) {
-                    const double v = m * std::pow(10, d);
-                    if (v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9)) r.push_back(v);
-                }
+            auto collect = [&](std::vector<double> mantissas) {
+                r.clear();
+                for (int d = d0; d <= d1; ++d)
+                    for (double m : mantissas) {
+                        const double v = m * std::pow(10, d);
+                        if (v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9)) r.push_back(v);
+                    }
+            };
+            // Fewer than four powers of ten in view: label 2 and 5 as well.
+            collect({1});
+            if (r.size() < 4) collect({1, 2, 5});
             // Many decades: label every other one.
-            if (r.size() > 9) {
+            if (r.size() > 12) {
                 std::vector<double> k;
                 for (std::size_t i = 0; i < r.size(); i += 2) k.push_back(r[i]);
                 r = k;
