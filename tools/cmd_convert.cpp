@@ -1,16 +1,19 @@
 // tetlod convert: a volume -> a .tlod container holding its HT (field stored
-// losslessly, per-diamond error bounds), with provenance and user metadata.
+// losslessly, per-diamond error bounds), its MT, or both (--model), with
+// provenance and user metadata.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <optional>
 #include <ostream>
 
 #include "cli_common.hpp"
 #include "command.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
@@ -27,6 +30,7 @@ struct ConvertArgs {
     int level = 19;
     int brick_log2 = 4;
     int error_bits = 4;
+    std::string model = "ht";
 };
 
 std::string utc_now() {
@@ -40,6 +44,10 @@ std::string utc_now() {
 
 int run_convert(const ConvertArgs& a) {
     Stopwatch sw;
+    const bool with_ht = a.model == "ht" || a.model == "ht,mt" || a.model == "mt,ht";
+    const bool with_mt = a.model == "mt" || a.model == "ht,mt" || a.model == "mt,ht";
+    if (!with_ht && !with_mt)
+        throw Error(ErrorCode::InvalidArgument, "--model '" + a.model + "': expected ht, mt or ht,mt");
     Volume v = load_volume(a.input, a.volume.options());
     for (const std::string& kv : a.meta) {
         const auto eq = kv.find('=');
@@ -62,39 +70,58 @@ int run_convert(const ConvertArgs& a) {
            format_seconds(sw.seconds()));
 
     const bool bar = verbosity() >= 0 && ::isatty(STDERR_FILENO);
-    if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");
-    HtBuildOptions bo;
-    bo.pad = a.pad;
-    HtModel model = HtModel::build(std::move(v), bo);
-    detail("built the HT in " + format_seconds(sw.seconds()));
-
-    HtEncodeOptions eo;
-    eo.zstd_level = a.level;
-    eo.brick_log2 = a.brick_log2;
-    eo.error_mantissa_bits = a.error_bits;
-    if (bar)
-        eo.progress = [](std::size_t done, std::size_t total) {
-            const int w = 40;
-            const int fill = total ? int(w * done / total) : w;
-            std::fprintf(stderr, "\rencoding [%.*s%*s] %zu/%zu chunks", fill,
-                         "########################################", w - fill, "", done, total);
-            std::fflush(stderr);
-        };
-    write_ht_container(a.output, model, meta, eo);
-    if (bar) std::fprintf(stderr, "\n");
+    const double n = double(v.dims.count());
+    const std::size_t value_bytes = value_size(v.type);
+    tlod::ContainerWriter w;
+    std::string summary;
+    std::optional<MtModel> mt;
+    if (with_mt) {
+        if (bar) std::fprintf(stderr, "building the MT (edge collapses)...\r");
+        mt = MtModel::build(v);
+        detail("built the MT in " + format_seconds(sw.seconds()));
+    }
+    if (with_ht) {
+        if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");
+        HtBuildOptions bo;
+        bo.pad = a.pad;
+        HtModel model = HtModel::build(std::move(v), bo);
+        detail("built the HT in " + format_seconds(sw.seconds()));
+        HtEncodeOptions eo;
+        eo.zstd_level = a.level;
+        eo.brick_log2 = a.brick_log2;
+        eo.error_mantissa_bits = a.error_bits;
+        if (bar)
+            eo.progress = [](std::size_t done, std::size_t total) {
+                const int width = 40;
+                const int fill = total ? int(width * done / total) : width;
+                std::fprintf(stderr, "\rencoding [%.*s%*s] %zu/%zu chunks", fill,
+                             "########################################", width - fill, "", done, total);
+                std::fflush(stderr);
+            };
+        encode_ht(model, meta, w, eo);
+        if (bar) std::fprintf(stderr, "\n");
+        summary += ", HT k = " + std::to_string(model.domain().k) + ", levels 0.." +
+                   std::to_string(model.domain().max_level());
+    }
+    if (mt) {
+        MtEncodeOptions mo;
+        mo.zstd_level = a.level;
+        encode_mt_container(*mt, meta, w, with_ht, mo);
+        summary += ", MT " + std::to_string(mt->updates().size()) + " updates on " +
+                   std::to_string(mt->base_tets().size()) + " base tets";
+    }
+    w.write(a.output);
 
     const uint64_t size = std::filesystem::file_size(a.output);
-    const double n = double(model.domain().source_dims.count());
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
-          << format_number(double(value_size(model.field().type))) << "), k = " << model.domain().k
-          << ", levels 0.." << model.domain().max_level() << ", " << format_seconds(sw.seconds())
+          << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())
           << "\n";
     return 0;
 }
 
 const CommandRegistration registration{Command{
-    "convert", "Convert a volume into a .tlod container (HT, lossless field)", 20,
+    "convert", "Convert a volume into a .tlod container (HT and/or MT, lossless field)", 20,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ConvertArgs>();
         sub.add_option("input", a->input, "Input volume")->required();
@@ -104,6 +131,9 @@ const CommandRegistration registration{Command{
         sub.add_flag("--pad", a->pad,
                      "Embed the data in the enclosing (2^k+1)^3 cube (coarser meshes; they cover "
                      "the padded cube)")
+            ->group(g);
+        sub.add_option("--model", a->model, "Models to store: ht, mt or ht,mt (the MT shares the HT's field)")
+            ->capture_default_str()
             ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--level", a->level, "zstd level of every section")
@@ -122,6 +152,7 @@ const CommandRegistration registration{Command{
             ->group(g);
         sub.footer("Examples:\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod\n"
+                   "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod --model ht,mt\n"
                    "  tetlod convert ct.raw ct.tlod --dims 512,512,300 --dtype i16 --meta patient=anon");
         return [a] { return run_convert(*a); };
     }}};
