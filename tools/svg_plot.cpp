@@ -59,11 +59,11 @@ struct Axis {
     }
     bool shows(double v) const { return std::isfinite(v) && (!log || v > 0); }
 
-    void fit(double mn, double mx, bool zero_based) {
+    void fit(double mn, double mx, bool zero_based, bool margin) {
         if (!(mn <= mx)) mn = log ? 1 : 0, mx = log ? 10 : 1;
         if (log) {
             // A little headroom so no marker sits on the frame.
-            mn /= 1.06, mx *= 1.06;
+            if (margin) mn /= 1.06, mx *= 1.06;
             lo = std::pow(10, std::floor(std::log10(mn)));
             hi = std::pow(10, std::ceil(std::log10(mx)));
             if (hi <= lo) hi = lo * 10;
@@ -80,7 +80,7 @@ struct Axis {
         }
         if (zero_based && mn > 0) mn = 0;
         if (mx == mn) mx = mn + 1;
-        mx += 0.03 * (mx - mn);
+        if (margin) mx += 0.03 * (mx - mn);
         const double step = nice_step((mx - mn) / 6);
         lo = std::floor(mn / step) * step;
         hi = std::ceil(mx / step) * step;
@@ -140,8 +140,11 @@ std::string render_svg(const Plot& plot) {
     Axis ax, ay;
     ax.log = plot.log_x, ay.log = plot.log_y;
     ax.p0 = kLeft, ax.p1 = kRight, ay.p0 = kBottom, ay.p1 = kTop;
-    ax.fit(xmn, xmx, false);
-    ay.fit(ymn, ymx, plot.kind == Plot::Kind::Histogram || !plot.log_y);
+    // Headroom keeps markers off the frame; bars may touch it, and bin edges
+    // are the x range of a histogram.
+    const bool lines = plot.kind == Plot::Kind::Lines;
+    ax.fit(xmn, xmx, false, lines);
+    ay.fit(ymn, ymx, !lines || !plot.log_y, lines);
 
     std::string o;
     o += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + num(kWidth) + "\" height=\"" +
