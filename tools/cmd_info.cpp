@@ -4,12 +4,14 @@
 
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
 #include "cli_common.hpp"
 #include "command.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
@@ -30,27 +32,45 @@ struct CycleSummary {
 int run_info(const InfoArgs& a) {
     auto r = tlod::ContainerReader::open(a.input);
     if (!r) throw Error(r.failure().code, r.failure().message);
-    auto lay = read_ht_layout(*r);
-    if (!lay) throw Error(lay.failure().code, lay.failure().message);
     const auto& h = r->header();
-    const auto& md = lay->metadata;
-    const auto& d = lay->domain;
+    // Models: the HT (required feature bit 0) and/or the MT (bit 1, spec §10).
+    std::optional<HtLayout> lay;
+    std::optional<MtLayout> mlay;
+    if (h.required_features & tlod::kFeatureHt) {
+        auto l = read_ht_layout(*r);
+        if (!l) throw Error(l.failure().code, l.failure().message);
+        lay = std::move(*l);
+    }
+    if (container_has_mt(*r)) {
+        auto l = read_mt_layout(*r);
+        if (!l) throw Error(l.failure().code, l.failure().message);
+        mlay = std::move(*l);
+    }
+    if (!lay && !mlay) throw Error(ErrorCode::NotFound, a.input + ": the container holds no model");
+    const tlod::Metadata& md = lay ? lay->metadata : mlay->metadata;
     const auto& secs = r->sections();
     const double n = double(md.dims.count());
+    uint64_t ht_bytes = 0, mt_bytes = 0;
+    for (const auto& s : secs) {
+        if (s.type == tlod::kSectionHtHeader || s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors)
+            ht_bytes += s.stored_size;
+        if (s.type == tlod::kSectionMtHeader || s.type == tlod::kSectionMtStructure) mt_bytes += s.stored_size;
+    }
 
     std::map<int, CycleSummary, std::greater<int>> cycles;
-    for (const HtChunk& c : lay->chunks) {
-        auto& s = cycles[c.cycle];
-        s.cycle = c.cycle;
-        ++s.chunks;
-        s.points += c.points;
-        s.field_bytes += secs[c.field_section].stored_size;
-        s.error_bytes += secs[c.error_section].stored_size;
-        s.raw_bytes += secs[c.field_section].raw_size + secs[c.error_section].raw_size;
-    }
+    if (lay)
+        for (const HtChunk& c : lay->chunks) {
+            auto& s = cycles[c.cycle];
+            s.cycle = c.cycle;
+            ++s.chunks;
+            s.points += c.points;
+            s.field_bytes += secs[c.field_section].stored_size;
+            s.error_bytes += secs[c.error_section].stored_size;
+            s.raw_bytes += secs[c.field_section].raw_size + secs[c.error_section].raw_size;
+        }
     auto levels_of = [&](int t) -> std::string {
-        if (t == d.k) return "corners";
-        const int l0 = 3 * (d.k - 1 - t);
+        if (t == lay->domain.k) return "corners";
+        const int l0 = 3 * (lay->domain.k - 1 - t);
         return std::to_string(l0) + ".." + std::to_string(l0 + 2);
     };
     auto key = [&](const char* k) {
@@ -74,22 +94,40 @@ int run_info(const InfoArgs& a) {
         j["user_keys"] = md.user_keys;
         j["bytes_per_grid_point"] = double(h.file_size) / n;
         j["models"] = nlohmann::json::array();
-        nlohmann::json m;
-        m["type"] = "HT";
-        m["k"] = d.k;
-        m["L"] = d.L;
-        m["box_max"] = d.box_max;
-        m["padded"] = d.padded;
-        m["levels"] = {0, d.max_level()};
-        m["brick_log2"] = lay->brick_log2;
-        m["error_mantissa_bits"] = lay->error_mantissa_bits;
-        m["error_max"] = key(tlod::kKeyHtErrorMax);
-        m["always_split_diamonds"] = key(tlod::kKeyHtAlwaysSplit);
-        for (const auto& [t, s] : cycles)
-            m["cycles"].push_back({{"cycle", t}, {"levels", levels_of(t)}, {"chunks", s.chunks},
-                                   {"points", s.points}, {"field_bytes", s.field_bytes},
-                                   {"error_bytes", s.error_bytes}, {"raw_bytes", s.raw_bytes}});
-        j["models"].push_back(m);
+        if (lay) {
+            const auto& d = lay->domain;
+            nlohmann::json m;
+            m["type"] = "HT";
+            m["k"] = d.k;
+            m["L"] = d.L;
+            m["box_max"] = d.box_max;
+            m["padded"] = d.padded;
+            m["levels"] = {0, d.max_level()};
+            m["brick_log2"] = lay->brick_log2;
+            m["error_mantissa_bits"] = lay->error_mantissa_bits;
+            m["error_max"] = key(tlod::kKeyHtErrorMax);
+            m["always_split_diamonds"] = key(tlod::kKeyHtAlwaysSplit);
+            m["section_bytes"] = ht_bytes;
+            m["bytes_per_grid_point"] = double(ht_bytes) / n;
+            for (const auto& [t, s] : cycles)
+                m["cycles"].push_back({{"cycle", t}, {"levels", levels_of(t)}, {"chunks", s.chunks},
+                                       {"points", s.points}, {"field_bytes", s.field_bytes},
+                                       {"error_bytes", s.error_bytes}, {"raw_bytes", s.raw_bytes}});
+            j["models"].push_back(m);
+        }
+        if (mlay) {
+            nlohmann::json m;
+            m["type"] = "MT";
+            m["base_tets"] = mlay->base_tets;
+            m["updates"] = mlay->updates;
+            m["error_mantissa_bits"] = mlay->error_mantissa_bits;
+            m["field"] = mlay->with_ht ? "shared with the HT" : "in the MT payload";
+            m["header_bytes"] = secs[mlay->header_section].stored_size;
+            m["structure_bytes"] = secs[mlay->structure_section].stored_size;
+            m["section_bytes"] = mt_bytes;
+            m["bytes_per_grid_point"] = double(mt_bytes) / n;
+            j["models"].push_back(m);
+        }
         for (std::size_t i = 0; i < secs.size(); ++i) {
             const auto& s = secs[i];
             j["sections"].push_back({{"index", i}, {"type", tlod::section_type_name(s.type)},
@@ -105,38 +143,52 @@ int run_info(const InfoArgs& a) {
     o << a.input << ": tlod " << h.version_major << "." << h.version_minor << ", "
       << format_bytes(h.file_size) << " (" << format_number(double(h.file_size) / n)
       << " bytes per grid point; raw " << value_size(md.type) << ")\n";
+    o << "  models    " << (lay ? "HT " + format_bytes(ht_bytes) + " (" + format_number(double(ht_bytes) / n) + " B/pt)" : "")
+      << (lay && mlay ? ", " : "")
+      << (mlay ? "MT " + format_bytes(mt_bytes) + " (" + format_number(double(mt_bytes) / n) + " B/pt)" : "") << "\n";
     o << "  volume    " << format_dims(md.dims) << " " << value_type_name(md.type) << ", field '"
       << md.field_name() << "'" << (md.units().empty() ? "" : " [" + md.units() + "]") << ", values "
       << format_number(md.value_range[0]) << ".." << format_number(md.value_range[1]) << "\n";
     o << "  geometry  spacing " << format_number(md.spacing[0]) << "," << format_number(md.spacing[1])
       << "," << format_number(md.spacing[2]) << "  origin " << format_number(md.origin[0]) << ","
       << format_number(md.origin[1]) << "," << format_number(md.origin[2]) << "\n";
-    o << "  model     HT, k = " << d.k << " (cube " << d.L + 1 << "^3), levels 0.." << d.max_level()
-      << ", box " << d.box_max[0] + 1 << "x" << d.box_max[1] + 1 << "x" << d.box_max[2] + 1
-      << (d.padded ? " (padded)" : "") << ", bricks 2^(t+" << lay->brick_log2 + 1 << ")\n";
-    o << "  errors    per diamond, rounded up to " << lay->error_mantissa_bits
-      << " mantissa bits; max finite " << key(tlod::kKeyHtErrorMax) << ", always split "
-      << key(tlod::kKeyHtAlwaysSplit) << "\n";
+    if (lay) {
+        const auto& d = lay->domain;
+        o << "  model     HT, k = " << d.k << " (cube " << d.L + 1 << "^3), levels 0.." << d.max_level()
+          << ", box " << d.box_max[0] + 1 << "x" << d.box_max[1] + 1 << "x" << d.box_max[2] + 1
+          << (d.padded ? " (padded)" : "") << ", bricks 2^(t+" << lay->brick_log2 + 1 << ")\n";
+        o << "  errors    per diamond, rounded up to " << lay->error_mantissa_bits
+          << " mantissa bits; max finite " << key(tlod::kKeyHtErrorMax) << ", always split "
+          << key(tlod::kKeyHtAlwaysSplit) << "\n";
+    }
+    if (mlay)
+        o << "  model     MT, " << mlay->updates << " vertex splits on " << mlay->base_tets
+          << " base tets, errors rounded up to " << mlay->error_mantissa_bits << " mantissa bits, field "
+          << (mlay->with_ht ? "shared with the HT" : "in the MT payload") << "; MT_HEADER "
+          << secs[mlay->header_section].stored_size << " B, MT_STRUCTURE "
+          << secs[mlay->structure_section].stored_size << " B\n";
     for (const auto& [k, v] : md.format_keys)
         if (k.rfind("ht.", 0) != 0 && k != tlod::kKeyFieldName && k != tlod::kKeyFieldUnits)
             o << "  " << k << std::string(k.size() < 12 ? 12 - k.size() : 1, ' ') << v << "\n";
     for (const auto& [k, v] : md.user_keys) o << "  user: " << k << " = " << v << "\n";
-    o << "  cycle  levels    chunks     points   field bytes  error bytes   B/pt (of all)\n";
-    for (const auto& [t, s] : cycles) {
-        char line[160];
-        std::snprintf(line, sizeof line, "  %5d  %-8s %7llu %10llu %13llu %12llu   %.3f\n", t,
-                      levels_of(t).c_str(), (unsigned long long)s.chunks,
-                      (unsigned long long)s.points, (unsigned long long)s.field_bytes,
-                      (unsigned long long)s.error_bytes,
-                      double(s.field_bytes + s.error_bytes) / n);
-        o << line;
+    if (lay) {
+        o << "  cycle  levels    chunks     points   field bytes  error bytes   B/pt (of all)\n";
+        for (const auto& [t, s] : cycles) {
+            char line[160];
+            std::snprintf(line, sizeof line, "  %5d  %-8s %7llu %10llu %13llu %12llu   %.3f\n", t,
+                          levels_of(t).c_str(), (unsigned long long)s.chunks,
+                          (unsigned long long)s.points, (unsigned long long)s.field_bytes,
+                          (unsigned long long)s.error_bytes,
+                          double(s.field_bytes + s.error_bytes) / n);
+            o << line;
+        }
     }
     if (a.sections) {
-        o << "  section  type        flags      offset     stored        raw  arg0  arg1\n";
+        o << "  section  type          flags      offset     stored        raw  arg0  arg1\n";
         for (std::size_t i = 0; i < secs.size(); ++i) {
             const auto& s = secs[i];
             char line[160];
-            std::snprintf(line, sizeof line, "  %7zu  %-10s  0x%02x %11llu %10llu %10llu %5u %5u\n", i,
+            std::snprintf(line, sizeof line, "  %7zu  %-12s  0x%02x %11llu %10llu %10llu %5u %5u\n", i,
                           tlod::section_type_name(s.type), s.flags, (unsigned long long)s.offset,
                           (unsigned long long)s.stored_size, (unsigned long long)s.raw_size, s.arg0,
                           s.arg1);
