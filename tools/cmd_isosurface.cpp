@@ -110,7 +110,7 @@ const CommandRegistration registration{Command{
             ->group(lod)
             ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
         const std::string model = "Model and output";
-        sub.add_option("--model", a->model, "Multiresolution model: ht or mt (mt: volumes only)")
+        sub.add_option("--model", a->model, "Multiresolution model: ht or mt (a .tlod must hold it)")
             ->group(model)
             ->capture_default_str()
             ->check(CLI::IsMember({"ht", "mt"}));

@@ -6,6 +6,7 @@
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
 #include "tetlod/codec/mt/mt_codec.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/codec/mt/mt_model.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/format/container.hpp"
@@ -74,11 +75,24 @@ LodModel build_model(ModelKind kind, Volume volume, bool pad, bool measure_stora
 LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& flags, bool pad,
                     bool measure_storage) {
     if (is_tlod_file(path)) {
-        if (kind == ModelKind::Mt)
-            throw Error(ErrorCode::UnsupportedFeature,
-                        "'" + path +
-                            "': .tlod containers hold the HT only; give the volume itself to "
-                            "build the MT (or use --model ht)");
+        if (kind == ModelKind::Mt) {
+            // load_mt_model throws (naming the file) when the container has no MT.
+            LodModel m;
+            m.kind = ModelKind::Mt;
+            Stopwatch clock;
+            auto mt = std::make_shared<MtModel>(load_mt_model(path));
+            m.build_seconds = clock.seconds();
+            m.dims = mt->dims();
+            m.range = mt->value_range();
+            m.memory_bytes = mt->field().bytes() + mt->base_tets().size() * 16 +
+                             mt->updates().size() * sizeof(MtUpdate) + mt->mask_bits().size() * 8;
+            m.updates = mt->updates().size();
+            m.stored_bytes = std::filesystem::file_size(path);
+            m.stored_what = ".tlod file (all models in it)";
+            m.from_container = true;
+            m.mt = std::move(mt);
+            return m;
+        }
         LodModel m;
         Stopwatch clock;
         auto ht = std::make_shared<HtModel>(load_ht_model(path));

@@ -48,9 +48,9 @@ struct LodModel {
 /// `measure_storage` also encodes the model to count its stored bytes.
 LodModel build_model(ModelKind kind, Volume volume, bool pad, bool measure_storage);
 
-/// Loads the model of `path`: a .tlod file gives its HT (an MT request is refused
-/// with UnsupportedFeature: containers hold the HT only); any volume file is read
-/// with `flags` and the model built.
+/// Loads the model of `path`: from a .tlod file the stored HT or MT (an MT request
+/// on a file without one throws, naming the file); any volume file is read with
+/// `flags` and the model built.
 LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& flags, bool pad,
                     bool measure_storage);
 
