@@ -55,12 +55,9 @@ int run_extract(const ExtractArgs& a) {
     const auto error_out =
         ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
 
-    if (mt && is_tlod_file(a.input))
-        throw Error(ErrorCode::UnsupportedFeature,
-                    "'" + a.input + "': --model mt on a .tlod container is not available yet; "
-                    "give the volume itself to build the MT, or use --model ht");
     if (is_tlod_file(a.input)) {  // containers: lazy extraction, no model build
         TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
+        t.model = mt ? "mt" : "ht";
         t.query.full = a.full;
         if (!a.box.empty()) t.query.box = parse_box(a.box, "--box");
         for (const auto& s : a.isovalues) t.query.isovalues.push_back(parse_number(s, "--isovalue"));
