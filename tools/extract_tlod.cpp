@@ -15,6 +15,9 @@ namespace tetlod::cli {
 namespace {
 
 int run_extract_tlod_mt(TlodExtractRequest& a, tlod::ContainerReader& r, const Stopwatch& clock) {
+    if (!container_has_mt(r))
+        throw Error(ErrorCode::NotFound, "'" + a.input + "': --model mt: the container holds no MT "
+                                         "(write one with `tetlod convert IN OUT.tlod --model ht,mt`)");
     auto layout = read_mt_layout(r);
     if (!layout) throw Error(layout.failure().code, layout.failure().message);
     auto model = decode_mt_container(r);
