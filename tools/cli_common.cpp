@@ -234,3 +234,56 @@ std::string format_error(double error, const std::array<double, 2>& range) {
 }
 
 }  // namespace tetlod::cli
+
+namespace tetlod::cli {
+
+void LodFlags::validate(bool need_error) const {
+    if (need_error && !full && error.empty())
+        throw Error(ErrorCode::InvalidArgument,
+                    "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
+    if (!error_out.empty() && !has_region())
+        throw Error(ErrorCode::InvalidArgument,
+                    "--error-out applies outside a region: give --box and/or --isovalue too");
+}
+
+ErrorThreshold LodFlags::error_in() const {
+    return error.empty() ? ErrorThreshold{} : ErrorThreshold::parse(error, "--error");
+}
+
+ErrorThreshold LodFlags::error_out_threshold() const {
+    return ErrorThreshold::parse(error_out.empty() ? "inf" : error_out, "--error-out");
+}
+
+LodQuery LodFlags::region_query(const Dims* dims) const {
+    LodQuery q;
+    q.full = full;
+    if (!box.empty()) q.box = parse_box(box, "--box");
+    for (const auto& s : isovalues) q.isovalues.push_back(parse_number(s, "--isovalue"));
+    if (dims) check_box_meets(q, *dims);
+    return q;
+}
+
+void LodFlags::check_box_meets(const LodQuery& q, const Dims& dims) const {
+    // A box that misses the data would silently make the query uniform.
+    if (!q.box) return;
+    const auto& b = *q.box;
+    for (int a = 0; a < 3; ++a)
+        if (b[a + 3] < 0 || b[a] > dims[a] - 1)
+            throw Error(ErrorCode::InvalidArgument,
+                        "--box '" + box + "' lies outside the volume (indices 0.." +
+                            std::to_string(dims.x - 1) + ", 0.." + std::to_string(dims.y - 1) +
+                            ", 0.." + std::to_string(dims.z - 1) + ")");
+}
+
+std::string LodFlags::describe(const LodQuery& q, const std::array<double, 2>& range) const {
+    if (full) return "full resolution";
+    std::string d = "error <= " + format_error(q.error_in, range);
+    if (has_region())
+        d += " in the region (" + (box.empty() ? "" : "box " + box) +
+             (!box.empty() && !isovalues.empty() ? ", " : "") +
+             (isovalues.empty() ? "" : std::to_string(isovalues.size()) + " isovalue(s)") + "), " +
+             format_error(q.error_out, range) + " elsewhere";
+    return d;
+}
+
+}  // namespace tetlod::cli

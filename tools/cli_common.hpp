@@ -8,7 +8,9 @@
 #include <functional>
 #include <iosfwd>
 #include <string>
+#include <vector>
 
+#include "tetlod/codec/lod_query.hpp"
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
 
@@ -61,6 +63,29 @@ struct ErrorThreshold {
     /// Field units for a volume with value range [lo, hi]: percent * (hi - lo) / 100
     /// (multiplied first so 1% of 255 is exactly 2.55). Negative stays negative.
     double resolve(const std::array<double, 2>& range) const;
+};
+
+/// The level-of-detail flags that extract and decode share, as typed: --error,
+/// --error-out, --box, --isovalue, --full. Empty strings: not given.
+struct LodFlags {
+    std::string error, error_out, box;
+    std::vector<std::string> isovalues;
+    bool full = false;
+
+    bool has_region() const { return !box.empty() || !isovalues.empty(); }
+    /// Refuses contradictory or missing flags (--error-out without a region;
+    /// neither --error nor --full when `need_error`).
+    void validate(bool need_error) const;
+    /// The thresholds as given (resolved against a value range later).
+    ErrorThreshold error_in() const;
+    ErrorThreshold error_out_threshold() const;
+    /// The query's region and --full; `dims` (when given) must meet the box.
+    LodQuery region_query(const Dims* dims) const;
+    /// Refuses a box that misses the data (the query would silently be uniform).
+    void check_box_meets(const LodQuery& q, const Dims& dims) const;
+    /// "full resolution" or "error <= E in the region (box ..., N isovalue(s)), E2
+    /// elsewhere", for the summary the commands print.
+    std::string describe(const LodQuery& resolved, const std::array<double, 2>& range) const;
 };
 
 /// Makes a CLI11 check from a parser that throws tetlod::Error, so bad text is a

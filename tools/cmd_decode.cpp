@@ -24,9 +24,8 @@ namespace tetlod::cli {
 namespace {
 
 struct DecodeArgs {
-    std::string input, output, format, model, error, error_out, box;  // empty: not given
-    std::vector<std::string> isovalues;
-    bool full = false;
+    std::string input, output, format, model;  // empty: not given
+    LodFlags lod;
     VolumeFlags volume;
 };
 
@@ -74,15 +73,12 @@ void print_written(const std::string& output, const VolumeLocation& where, const
 }
 
 int run_decode(const DecodeArgs& a) {
-    const bool lod = a.full || !a.error.empty() || !a.box.empty() || !a.isovalues.empty() ||
-                     !a.error_out.empty();
-    const bool region = !a.box.empty() || !a.isovalues.empty();
-    if (lod && !a.full && a.error.empty())
+    const bool lod = a.lod.full || !a.lod.error.empty() || a.lod.has_region() ||
+                     !a.lod.error_out.empty();
+    if (lod && !a.lod.full && a.lod.error.empty())
         throw Error(ErrorCode::InvalidArgument,
                     "--box, --isovalue and --error-out need --error E (or --full)");
-    if (!a.error_out.empty() && !region)
-        throw Error(ErrorCode::InvalidArgument,
-                    "--error-out applies outside a region: give --box and/or --isovalue too");
+    a.lod.validate(/*need_error=*/false);
     if (!a.model.empty() && !lod)
         throw Error(ErrorCode::InvalidArgument,
                     "--model applies to level-of-detail decoding: give --error E or --full");
@@ -109,12 +105,9 @@ int run_decode(const DecodeArgs& a) {
                     "'" + a.input +
                         "': --model mt needs the volume itself (this decoder reads the HT of "
                         "containers); give the volume file or use --model ht");
-    const auto error_in = a.error.empty() ? ErrorThreshold{} : ErrorThreshold::parse(a.error, "--error");
-    const auto error_out = ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
-    LodQuery query;
-    query.full = a.full;
-    if (!a.box.empty()) query.box = parse_box(a.box, "--box");
-    for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
+    const auto error_in = a.lod.error_in();
+    const auto error_out = a.lod.error_out_threshold();
+    LodQuery query = a.lod.region_query(nullptr);
 
     // The original volume and the model.
     Volume original;
@@ -133,15 +126,7 @@ int run_decode(const DecodeArgs& a) {
     }
     const double load_seconds = clock.seconds();
     const Dims dims = original.dims;
-    if (query.box) {
-        const auto& b = *query.box;
-        for (int ax = 0; ax < 3; ++ax)
-            if (b[ax + 3] < 0 || b[ax] > dims[ax] - 1)
-                throw Error(ErrorCode::InvalidArgument,
-                            "--box '" + a.box + "' lies outside the volume (indices 0.." +
-                                std::to_string(dims.x - 1) + ", 0.." + std::to_string(dims.y - 1) +
-                                ", 0.." + std::to_string(dims.z - 1) + ")");
-    }
+    a.lod.check_box_meets(query, dims);
     Stopwatch build_clock;
     if (!container) {
         if (mt)
@@ -189,18 +174,7 @@ int run_decode(const DecodeArgs& a) {
     o << "input    " << a.input << ": " << format_dims(dims) << " " << value_type_name(original.type)
       << ", values " << format_number(range[0]) << ".." << format_number(range[1])
       << (container ? " (.tlod)" : "") << "\n";
-    o << "query    " << (mt ? "MT" : "HT") << ", ";
-    if (a.full) {
-        o << "full resolution\n";
-    } else {
-        o << "error <= " << format_error(query.error_in, range);
-        if (region)
-            o << " in the region (" << (a.box.empty() ? "" : "box " + a.box)
-              << (!a.box.empty() && !a.isovalues.empty() ? ", " : "")
-              << (a.isovalues.empty() ? "" : std::to_string(a.isovalues.size()) + " isovalue(s)")
-              << "), " << format_error(query.error_out, range) << " elsewhere";
-        o << "\n";
-    }
+    o << "query    " << (mt ? "MT" : "HT") << ", " << a.lod.describe(query, range) << "\n";
     o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
       << " vertices, largest error " << format_error(mesh_error, range) << "\n";
     o << "deviation max " << format_error(max_dev, range) << ", mean "
@@ -231,22 +205,22 @@ const CommandRegistration registration{Command{
             "Level of detail (optional; E: absolute like 0.5, percent of the value range like 1%, "
             "inf, or negative = full resolution)";
         const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
-        sub.add_option("--error", a->error, "Decode the LOD mesh at this error (inside the region if any)")
+        sub.add_option("--error", a->lod.error, "Decode the LOD mesh at this error (inside the region if any)")
             ->group(lod)
             ->check(threshold);
-        sub.add_option("--error-out", a->error_out, "Largest error outside the region (default inf)")
+        sub.add_option("--error-out", a->lod.error_out, "Largest error outside the region (default inf)")
             ->group(lod)
             ->check(threshold);
-        sub.add_option("--box", a->box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
+        sub.add_option("--box", a->lod.box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
             ->group(lod)
             ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
-        sub.add_option("--isovalue", a->isovalues,
+        sub.add_option("--isovalue", a->lod.isovalues,
                        "Region: tets an isosurface at V may cross (repeat or V1,V2)")
             ->group(lod)
             ->allow_extra_args(false)
             ->delimiter(',')
             ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
-        sub.add_flag("--full", a->full, "Decode the full-resolution mesh (equals the original)")
+        sub.add_flag("--full", a->lod.full, "Decode the full-resolution mesh (equals the original)")
             ->group(lod);
         sub.add_option("--model", a->model, "Model for --error: ht (default) or mt (volume inputs)")
             ->group(lod)

@@ -20,21 +20,11 @@ namespace tetlod::cli {
 namespace {
 
 struct ExtractArgs {
-    std::string input, output, model = "ht", error, error_out, box, format;  // empty: not given
-    std::vector<std::string> isovalues;
-    bool full = false, pad = false, no_compress = false;
+    std::string input, output, model = "ht", format;  // empty: not given
+    LodFlags lod;
+    bool pad = false, no_compress = false;
     VolumeFlags volume;
 };
-
-// Refuses a box that misses the data entirely: the query would silently be uniform.
-void check_box_meets(const std::array<int64_t, 6>& b, const Dims& dims, const std::string& text) {
-    for (int a = 0; a < 3; ++a)
-        if (b[a + 3] < 0 || b[a] > dims[a] - 1)
-            throw Error(ErrorCode::InvalidArgument,
-                        "--box '" + text + "' lies outside the volume (indices 0.." +
-                            std::to_string(dims.x - 1) + ", 0.." + std::to_string(dims.y - 1) +
-                            ", 0.." + std::to_string(dims.z - 1) + ")");
-}
 
 int run_extract(const ExtractArgs& a) {
     const bool mt = a.model == "mt";
@@ -42,25 +32,14 @@ int run_extract(const ExtractArgs& a) {
         throw Error(ErrorCode::InvalidArgument,
                     "--pad applies to the HT only (the MT always covers the data's bounding box): "
                     "drop --pad or use --model ht");
-    if (!a.full && a.error.empty())
-        throw Error(ErrorCode::InvalidArgument,
-                    "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
-    const bool region = !a.box.empty() || !a.isovalues.empty();
-    if (!a.error_out.empty() && !region)
-        throw Error(ErrorCode::InvalidArgument,
-                    "--error-out applies outside a region: "
-                    "give --box and/or --isovalue too");
-    const auto error_in =
-        a.error.empty() ? ErrorThreshold{} : ErrorThreshold::parse(a.error, "--error");
-    const auto error_out =
-        ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
+    a.lod.validate(/*need_error=*/true);
+    const auto error_in = a.lod.error_in();
+    const auto error_out = a.lod.error_out_threshold();
 
     if (is_tlod_file(a.input)) {  // containers: lazy extraction, no model build
         TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
         t.model = mt ? "mt" : "ht";
-        t.query.full = a.full;
-        if (!a.box.empty()) t.query.box = parse_box(a.box, "--box");
-        for (const auto& s : a.isovalues) t.query.isovalues.push_back(parse_number(s, "--isovalue"));
+        t.query = a.lod.region_query(nullptr);
         t.error_in = [error_in](const std::array<double, 2>& r) { return error_in.resolve(r); };
         t.error_out = [error_out](const std::array<double, 2>& r) { return error_out.resolve(r); };
         return run_extract_tlod(std::move(t));
@@ -68,13 +47,7 @@ int run_extract(const ExtractArgs& a) {
     Volume volume = load_volume(a.input, a.volume.options());
     const Dims dims = volume.dims;
     const std::string type_name = value_type_name(volume.type);
-    LodQuery query;
-    query.full = a.full;
-    if (!a.box.empty()) {
-        query.box = parse_box(a.box, "--box");
-        check_box_meets(*query.box, dims, a.box);
-    }
-    for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
+    LodQuery query = a.lod.region_query(&dims);
 
     TetMesh mesh;
     std::array<double, 2> range{0, 0};
@@ -127,18 +100,7 @@ int run_extract(const ExtractArgs& a) {
     auto& o = out();
     o << "input    " << a.input << ": " << format_dims(dims) << " " << type_name << ", values "
       << format_number(range[0]) << ".." << format_number(range[1]) << "\n";
-    o << "query    ";
-    if (a.full) {
-        o << "full resolution\n";
-    } else {
-        o << "error <= " << format_error(query.error_in, range);
-        if (region)
-            o << " in the region (" << (a.box.empty() ? "" : "box " + a.box)
-              << (!a.box.empty() && !a.isovalues.empty() ? ", " : "")
-              << (a.isovalues.empty() ? "" : std::to_string(a.isovalues.size()) + " isovalue(s)")
-              << "), " << format_error(query.error_out, range) << " elsewhere";
-        o << "\n";
-    }
+    o << "query    " << a.lod.describe(query, range) << "\n";
     o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
       << " vertices, largest error " << format_error(max_error, range) << "\n";
     o << "time     build " << format_seconds(build_seconds) << ", extract "
@@ -163,23 +125,23 @@ const CommandRegistration registration{Command{
             "range like 1%, inf, or negative = full resolution)";
         const auto threshold =
             check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
-        sub.add_option("--error", a->error, "Largest error allowed (inside the region if any)")
+        sub.add_option("--error", a->lod.error, "Largest error allowed (inside the region if any)")
             ->group(lod)
             ->check(threshold);
-        sub.add_option("--error-out", a->error_out,
+        sub.add_option("--error-out", a->lod.error_out,
                        "Largest error outside the region (default inf)")
             ->group(lod)
             ->check(threshold);
-        sub.add_option("--box", a->box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
+        sub.add_option("--box", a->lod.box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
             ->group(lod)
             ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
-        sub.add_option("--isovalue", a->isovalues,
+        sub.add_option("--isovalue", a->lod.isovalues,
                        "Region: tets an isosurface at V may cross (repeat or V1,V2)")
             ->group(lod)
             ->allow_extra_args(false)  // one value per flag: never swallow the positionals
             ->delimiter(',')
             ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
-        sub.add_flag("--full", a->full, "Full-resolution reference mesh")->group(lod);
+        sub.add_flag("--full", a->lod.full, "Full-resolution reference mesh")->group(lod);
 
         const std::string model = "Model and output";
         sub.add_option("--model", a->model,

@@ -89,9 +89,12 @@ TEST_P(RoundTrip, BitExactForEveryValueType) {
             for (std::size_t i = 0; i < te.size(); ++i) {
                 if (std::isnan(te[i])) continue;
                 ASSERT_GE(dec->errors[i], te[i]) << i;
-                if (std::isfinite(te[i]) && te[i] > 0)
+                if (std::isfinite(te[i]) && te[i] > 0) {
                     ASSERT_LE(dec->errors[i], te[i] * (1.0f + 1.0f / 16) * 1.0001f);
-                if (te[i] == 0) ASSERT_EQ(dec->errors[i], 0.0f);
+                }
+                if (te[i] == 0) {
+                    ASSERT_EQ(dec->errors[i], 0.0f);
+                }
             }
         }
     }
@@ -342,6 +345,8 @@ TEST(LazyExtract, SameMeshAsFullDecode) {
         EXPECT_EQ(got->tets, want.tets) << "query " << i;
         EXPECT_EQ(got->values, want.values) << "query " << i;
         EXPECT_EQ(got->error, want.error) << "query " << i;
-        if (i == 0 || i == 3) EXPECT_LT(st.chunks_decoded, st.chunks_total) << "query " << i;
+        if (i == 0 || i == 3) {
+            EXPECT_LT(st.chunks_decoded, st.chunks_total) << "query " << i;
+        }
     }
 }

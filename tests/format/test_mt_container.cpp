@@ -99,7 +99,9 @@ TEST(MtContainer, RoundTripWithHtAndAlone) {
             EXPECT_TRUE(m->field().data == f.vol.data);
             EXPECT_TRUE(m->base_tets() == f.mt.base_tets());
             expect_same_meshes(*m, *ref, f.vol);
-            const TetMesh full = m->extract(LodQuery{.full = true});
+            LodQuery full_query;
+            full_query.full = true;
+            const TetMesh full = m->extract(full_query);
             EXPECT_EQ(int64_t(full.tet_count()), 5 * int64_t(8 * 6 * 5));
         }
         // Features: optional next to an HT, required alone; the HT still decodes.
