@@ -149,7 +149,9 @@ std::string mt_summary(const MtModel& m) {
     std::ostringstream o;
     const auto r = m.field().range();
     o << "{\n  \"base_tets\": " << m.base_tets().size() << ",\n  \"updates\": " << m.updates().size() << ",\n";
-    o << "  \"tets_full\": " << m.extract(LodQuery{.full = true}).tet_count() << ",\n";
+    LodQuery full_query;
+    full_query.full = true;
+    o << "  \"tets_full\": " << m.extract(full_query).tet_count() << ",\n";
     LodQuery q0;
     q0.error_in = 0.0;
     o << "  \"tets_error_0\": " << m.extract(q0).tet_count() << ",\n";
