@@ -287,3 +287,26 @@ std::string LodFlags::describe(const LodQuery& q, const std::array<double, 2>& r
 }
 
 }  // namespace tetlod::cli
+
+namespace tetlod::cli {
+
+void add_lod_flags(CLI::App& sub, LodFlags& f, const std::string& group,
+                   const std::string& error_help, const std::string& full_help) {
+    const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
+    sub.add_option("--error", f.error, error_help)->group(group)->check(threshold);
+    sub.add_option("--error-out", f.error_out, "Largest error outside the region (default inf)")
+        ->group(group)
+        ->check(threshold);
+    sub.add_option("--box", f.box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
+        ->group(group)
+        ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
+    sub.add_option("--isovalue", f.isovalues,
+                   "Region: tets an isosurface at V may cross (repeat or V1,V2)")
+        ->group(group)
+        ->allow_extra_args(false)  // one value per flag: never swallow the positionals
+        ->delimiter(',')
+        ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
+    sub.add_flag("--full", f.full, full_help)->group(group);
+}
+
+}  // namespace tetlod::cli

@@ -88,6 +88,12 @@ struct LodFlags {
     std::string describe(const LodQuery& resolved, const std::array<double, 2>& range) const;
 };
 
+/// Adds --error --error-out --box --isovalue --full to `sub` in `group`, each
+/// validated while CLI11 parses; `error_help` and `full_help` say what they mean
+/// for the command.
+void add_lod_flags(CLI::App& sub, LodFlags& flags, const std::string& group,
+                   const std::string& error_help, const std::string& full_help);
+
 /// Makes a CLI11 check from a parser that throws tetlod::Error, so bad text is a
 /// parse error (exit 2) reported before any work starts. Call the parser with
 /// an empty flag name: CLI11 prefixes the option's name to the message.

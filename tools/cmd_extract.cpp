@@ -123,25 +123,8 @@ const CommandRegistration registration{Command{
         const std::string lod =
             "Level of detail (E: absolute like 0.5, percent of the value "
             "range like 1%, inf, or negative = full resolution)";
-        const auto threshold =
-            check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
-        sub.add_option("--error", a->lod.error, "Largest error allowed (inside the region if any)")
-            ->group(lod)
-            ->check(threshold);
-        sub.add_option("--error-out", a->lod.error_out,
-                       "Largest error outside the region (default inf)")
-            ->group(lod)
-            ->check(threshold);
-        sub.add_option("--box", a->lod.box, "Region: index box x0,y0,z0,x1,y1,z1 (inclusive)")
-            ->group(lod)
-            ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
-        sub.add_option("--isovalue", a->lod.isovalues,
-                       "Region: tets an isosurface at V may cross (repeat or V1,V2)")
-            ->group(lod)
-            ->allow_extra_args(false)  // one value per flag: never swallow the positionals
-            ->delimiter(',')
-            ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
-        sub.add_flag("--full", a->lod.full, "Full-resolution reference mesh")->group(lod);
+        add_lod_flags(sub, a->lod, lod, "Largest error allowed (inside the region if any)",
+                      "Full-resolution reference mesh");
 
         const std::string model = "Model and output";
         sub.add_option("--model", a->model,
