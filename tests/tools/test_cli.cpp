@@ -8,36 +8,14 @@
 #include <fstream>
 #include <vector>
 
+#include "cli_runner.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string tmp(const std::string& name) { return (fs::path(TETLOD_TEST_TMP) / name).string(); }
+using namespace tetlod_cli_test;
 
-std::string slurp(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-struct CliRun {
-    int code = -1;
-    std::string out, err;
-};
-
-// Runs the CLI through the shell with stdout and stderr captured apart.
-CliRun run(const std::string& args) {
-    // ctest runs tests in parallel processes: name the capture files per test.
-    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    const std::string out = tmp(test + ".stdout"), err = tmp(test + ".stderr");
-    const std::string cmd =
-        std::string("'") + TETLOD_CLI_PATH + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-}
 
 bool contains(const std::string& s, const std::string& part) {
     return s.find(part) != std::string::npos;

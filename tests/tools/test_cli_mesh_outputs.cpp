@@ -11,30 +11,16 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "cli_runner.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string tmp(const std::string& name) { return (fs::path(TETLOD_TEST_TMP) / name).string(); }
+using namespace tetlod_cli_test;
+using CliResult = CliRun;
+inline CliRun cli(const std::string& args) { return run(args); }
 
-std::string slurp(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-struct CliResult {
-    int code = -1;
-    std::string out, err;
-};
-
-CliResult sh(const std::string& cmd) {
-    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    const std::string out = tmp(test + ".out"), err = tmp(test + ".err");
-    const int status = std::system((cmd + " >'" + out + "' 2>'" + err + "'").c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-}
-
-CliResult cli(const std::string& args) { return sh(std::string("'") + TETLOD_CLI_PATH + "' " + args); }
 
 bool python_has(const std::string& lib) {
     return std::system(("/usr/bin/python3 -c 'import " + lib + "' >/dev/null 2>&1").c_str()) == 0;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <vector>
 
+#include "cli_runner.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/core/volume.hpp"
 
@@ -22,33 +23,8 @@ namespace fs = std::filesystem;
 namespace tetlod {
 namespace {
 
-std::string tmp(const std::string& name) { return (fs::path(TETLOD_TEST_TMP) / name).string(); }
+using namespace tetlod_cli_test;
 
-std::string slurp(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-struct CliRun {
-    int code = -1;
-    std::string out, err;
-};
-
-CliRun run(const std::string& args) {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string test = std::string(info->test_suite_name()) + "." + info->name();
-    for (char& c : test)
-        if (c == '/') c = '_';  // parameterized names
-    const std::string out = tmp(test + ".stdout"), err = tmp(test + ".stderr");
-    const std::string cmd =
-        std::string("'") + TETLOD_CLI_PATH + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-}
 
 bool contains(const std::string& s, const std::string& part) {
     return s.find(part) != std::string::npos;
@@ -152,7 +128,9 @@ TEST_P(DecodeFormats, ErrorZeroIsExactAndFivePercentIsBounded) {
 
     for (const std::string& input : {tlod, std::string()}) {  // container, then plain volume
         const std::string src = input.empty() ? tmp("e_" + tn + ".nrrd") : input;
-        if (input.empty()) ASSERT_EQ(run("-q decode " + q(tlod) + " " + q(src)).code, 0);
+        if (input.empty()) {
+            ASSERT_EQ(run("-q decode " + q(tlod) + " " + q(src)).code, 0);
+        }
         SCOPED_TRACE(src);
         const CliRun zero = run("decode " + q(src) + " " + q(tmp("zero_" + tn + ".nrrd")) + " --error 0");
         ASSERT_EQ(zero.code, 0) << zero.err;
@@ -176,9 +154,10 @@ TEST_P(DecodeFormats, ErrorZeroIsExactAndFivePercentIsBounded) {
         EXPECT_LE(d.max, bound);
         EXPECT_GT(d.max, 0.0) << "5% should coarsen this field";
         EXPECT_NE(f.data, v.data);
-        if (!is_float(t))  // the printed deviation is the one recomputed here
+        if (!is_float(t)) {  // the printed deviation is the one recomputed here
             EXPECT_TRUE(contains(five.out, "deviation max " + std::to_string(int64_t(d.max)) + " ("))
                 << five.out;
+        }
         EXPECT_TRUE(contains(five.out, "deviation max")) << five.out;
         EXPECT_TRUE(contains(five.out, "tets")) << five.out;
     }
