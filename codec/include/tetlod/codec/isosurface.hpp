@@ -32,7 +32,11 @@ namespace tetlod {
 
 struct IsosurfaceStats {
     uint64_t crossed_tets = 0;
-    uint64_t degenerate_faces = 0;  // zero-area faces (samples equal to V)
+    uint64_t degenerate_faces = 0;  // faces dropped: they used a vertex twice after welding
+    uint64_t cancelled_faces = 0;   // faces dropped: opposite pairs on the same three vertices
+    uint64_t welded_vertices = 0;   // vertices merged into another at the same position
+    uint64_t split_vertices = 0;    // copies made so that every vertex is one fan
+    uint64_t zero_area_faces = 0;   // kept faces of zero computed area (rounding; normally 0)
 };
 
 /// Marching tetrahedra on `mesh` for each of `isovalues` (any order; duplicates
