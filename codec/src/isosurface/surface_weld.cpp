@@ -143,7 +143,16 @@ void weld_surface(RawSurface s, IsosurfaceStats& stats) {
     keep_faces(m, keep);
 
     // (4) One vertex per fan: faces around v are joined when they share an
-    // edge (v, w); each extra group gets its own copy of v.
+    // edge (v, w) that no other face uses; each extra group gets its own copy
+    // of v. An edge in more than two faces (two sheets meeting along an edge
+    // between samples equal to V) joins nothing, so its ends split per sheet
+    // and the edge becomes one edge per sheet.
+    std::unordered_map<uint64_t, uint32_t> edge_uses;
+    auto edge_key = [](uint32_t a, uint32_t b) {
+        return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+    };
+    for (const auto& f : m.faces)
+        for (int k = 0; k < 3; ++k) ++edge_uses[edge_key(f[k], f[(k + 1) % 3])];
     {
         std::vector<uint32_t> start(m.points.size() + 1, 0), incident;
         for (const auto& f : m.faces)
@@ -161,7 +170,7 @@ void weld_surface(RawSurface s, IsosurfaceStats& stats) {
             std::unordered_map<uint32_t, uint32_t> via;  // neighbour w -> a local face using (v, w)
             for (uint32_t k = b; k < e; ++k)
                 for (uint32_t w : m.faces[incident[k]]) {
-                    if (w == v) continue;
+                    if (w == v || edge_uses[edge_key(v, w)] > 2) continue;
                     auto [it, fresh] = via.try_emplace(w, k - b);
                     if (!fresh) groups.join(k - b, it->second);
                 }
@@ -199,6 +208,11 @@ void weld_surface(RawSurface s, IsosurfaceStats& stats) {
             }
         }
     }
+
+    edge_uses.clear();
+    for (const auto& f : m.faces)
+        for (int k = 0; k < 3; ++k) ++edge_uses[edge_key(f[k], f[(k + 1) % 3])];
+    for (const auto& [e, n] : edge_uses) stats.nonmanifold_edges += n > 2;
 
     // (5) Drop unused vertices, keeping the order of the rest.
     std::vector<uint32_t> remap(m.points.size(), UINT32_MAX);

@@ -24,8 +24,9 @@ struct RawSurface {
 /// removes pairs of faces with the same three vertices and opposite
 /// orientations (a two-sided sheet of zero thickness, where the inside region
 /// is a single layer of samples equal to V); (4) splits a vertex whose faces
-/// form several fans (the surface touches itself at that point) into one
-/// vertex per fan, so every vertex is manifold; (5) removes unused vertices.
+/// form several fans (the surface touches itself at that point; faces sharing
+/// an edge used by more than two faces count as separate fans) into one vertex
+/// per fan, so every vertex is manifold; (5) removes unused vertices.
 void weld_surface(RawSurface s, IsosurfaceStats& stats);
 
 }  // namespace tetlod::detail

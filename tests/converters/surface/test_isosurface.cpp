@@ -238,6 +238,7 @@ TEST(Isosurface, SamplesEqualToTheIsovalueAreWeldedAndZeroAreaFacesDropped) {
         EXPECT_GT(enclosed_volume(s), 0.0);
         EXPECT_GT(stats.degenerate_faces, 0u);  // the ties really happen
         EXPECT_EQ(stats.zero_area_faces, 0u);
+        EXPECT_EQ(stats.nonmanifold_edges, 0u);
     }
 }
 
@@ -261,6 +262,25 @@ TEST(Isosurface, SurfaceTouchingItselfAtASampleIsSplitThere) {
     for (const auto& p : s.points)
         if (std::abs(p[0] - 2) < 0.01 && std::abs(p[1] - 2) < 0.01 && std::abs(p[2] - 2) < 0.01) ++near;
     EXPECT_EQ(near, stats.split_vertices + 1);
+}
+
+TEST(Isosurface, SurfaceTouchingItselfAlongAnEdgeIsSplitThere) {
+    // Two columns side by side, their middle samples equal to V and adjacent:
+    // the inside region is pinched along the edge between them, where the
+    // welded surface would have an edge in four faces. Both ends split.
+    Volume v = Volume::allocate(Dims{6, 5, 5}, ValueType::U8);
+    for (int x : {2, 3}) {
+        v.set_value(v.dims.index(x, 2, 1), 10);
+        v.set_value(v.dims.index(x, 2, 2), 5);
+        v.set_value(v.dims.index(x, 2, 3), 10);
+    }
+    const double iso[] = {5.0};
+    IsosurfaceStats stats;
+    const TriangleMesh s = marching_tetrahedra(full_mesh(std::move(v)), iso, &stats);
+    EXPECT_GE(stats.split_vertices, 2u);
+    EXPECT_EQ(stats.nonmanifold_edges, 0u);
+    expect_welded(s);
+    EXPECT_GT(enclosed_volume(s), 0.0);
 }
 
 TEST(Isosurface, TwoSidedSheetOfSamplesEqualToTheIsovalueVanishes) {
