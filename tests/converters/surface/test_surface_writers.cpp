@@ -205,11 +205,11 @@ void expect_gmsh_reads_cleanly(const std::string& path, std::size_t faces) {
     EXPECT_TRUE(contains(*out, "Info    : " + std::to_string(faces) + " triangles")) << *out;
 }
 
-TEST(SurfaceWriters, GmshReadsThePlainPly) {
+TEST(SurfaceWriters, GmshReadsThePlainPlyAndAsciiExtras) {
     const std::string missing = test::gmsh_missing();
     if (!missing.empty()) GTEST_SKIP() << missing;
     write_all();
-    for (const char* file : {"s_bin.ply", "s_ascii.ply"}) {
+    for (const char* file : {"s_bin.ply", "s_ascii.ply", "s_ascii_extras.ply"}) {
         SCOPED_TRACE(file);
         expect_gmsh_reads_cleanly(tmp(file), sphere().faces.size());
     }
