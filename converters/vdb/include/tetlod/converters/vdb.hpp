@@ -17,7 +17,9 @@
 //    shear, flip, or non-linear (frustum) transform is ErrorCode::UnsupportedFeature.
 //  - grid metadata go to Volume::metadata as text (except OpenVDB's own file_*
 //    statistics). "tetlod_value_type" or "original_dtype" restores an integer
-//    type stored as float when every value converts exactly.
+//    type stored as float when every value converts exactly. "vdb:grid_type"
+//    records the grid's value type (float, double, int32, int64, bool), so
+//    write_vdb writes the same grid type again.
 // Safe on untrusted input: errors from the library become tetlod::Error naming
 // the file.
 #include <string>
