@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <memory>
 #include <ostream>
 
@@ -72,6 +73,17 @@ void print_written(const std::string& output, const VolumeLocation& where, const
               << format_number(v.origin[2]) << "\n";
 }
 
+// Metadata the output format cannot hold is written without, never refused,
+// and said so on stderr (the key names, so nothing is lost silently).
+void warn_metadata_lost(const Volume& v, const std::string& output, const std::string& format) {
+    const auto lost = metadata_keys_lost(v, output, format);
+    if (lost.empty()) return;
+    std::string keys;
+    for (const auto& k : lost) keys += (keys.empty() ? "'" : ", '") + k + "'";
+    std::cerr << "tetlod: warning: '" << output << "' cannot hold metadata " << keys
+              << "; written without " << (lost.size() == 1 ? "it" : "them") << "\n";
+}
+
 int run_decode(const DecodeArgs& a) {
     const bool lod = a.lod.full || !a.lod.error.empty() || a.lod.has_region() ||
                      !a.lod.error_out.empty();
@@ -95,6 +107,7 @@ int run_decode(const DecodeArgs& a) {
     if (!lod) {  // the original volume, bit-exact
         const Volume v = container ? read_container(a.input) : load_volume(a.input, a.volume.options());
         write_volume(v, a.output, a.format);
+        warn_metadata_lost(v, a.output, a.format);
         print_written(a.output, where, v, clock.seconds());
         return 0;
     }
@@ -168,6 +181,7 @@ int run_decode(const DecodeArgs& a) {
 
     Stopwatch write_clock;
     write_volume(lodv, a.output, a.format);
+    warn_metadata_lost(lodv, a.output, a.format);
     const double write_seconds = write_clock.seconds();
 
     auto& o = out();

@@ -24,7 +24,7 @@ namespace {
 struct IsoArgs {
     std::string input, output, model = "ht", error = "0", error_out, box, format;
     std::vector<std::string> isovalues;
-    bool ascii = false, pad = false, no_normals = false;
+    bool ascii = false, pad = false, no_normals = false, ply_extras = false;
     VolumeFlags volume;
 };
 
@@ -57,6 +57,7 @@ int run_isosurface(const IsoArgs& a) {
     SurfaceWriteOptions wo;
     wo.binary = !a.ascii;
     wo.normals = !a.no_normals;
+    wo.ply_extras = a.ply_extras;
     Stopwatch write_clock;
     write_surface(surface, a.output, a.format, wo);
     const double write_seconds = write_clock.seconds();
@@ -71,7 +72,9 @@ int run_isosurface(const IsoArgs& a) {
     o << "tets     " << mesh.tet_count() << " (" << stats.crossed_tets << " crossed)\n";
     o << "surface  " << surface.face_count() << " triangles, " << surface.vertex_count()
       << " vertices";
-    if (stats.degenerate_faces) o << ", " << stats.degenerate_faces << " of zero area (samples equal to an isovalue)";
+    if (stats.degenerate_faces + stats.cancelled_faces)
+        o << ", " << stats.degenerate_faces + stats.cancelled_faces
+          << " of zero area dropped (samples equal to an isovalue)";
     o << "\n";
     o << "time     " << (model.from_container ? "load " : "build ")
       << format_seconds(model.build_seconds) << ", extract " << format_seconds(extract_seconds)
@@ -121,10 +124,15 @@ const CommandRegistration registration{Command{
             ->check(CLI::IsMember({"ply", "obj", "off", "stl"}));
         sub.add_flag("--ascii", a->ascii, "ASCII PLY/STL instead of binary")->group(model);
         sub.add_flag("--no-normals", a->no_normals, "Leave vertex normals out")->group(model);
+        sub.add_flag("--ply-extras", a->ply_extras,
+                     "PLY: add vertex normals and per-face \"error\", \"surface\" (gmsh and "
+                     "binary meshio cannot read them)")
+            ->group(model);
         sub.footer(
             "Inside is f >= V (samples equal to V count as inside); triangles are\n"
             "counter-clockwise seen from outside, normals point towards decreasing\n"
-            "field. PLY carries per-face \"error\" (source tet's bound) and \"surface\"\n"
+            "field. PLY is plain (x y z, triangles) for every reader; with --ply-extras\n"
+            "it adds normals and per-face \"error\" (source tet's bound) and \"surface\"\n"
             "(isovalue index).\n\n"
             "Examples:\n"
             "  tetlod isosurface bucky_32x32x32_uint8.raw bucky.ply --isovalue 128\n"

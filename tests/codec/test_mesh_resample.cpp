@@ -204,6 +204,38 @@ TEST(MeshResample, LargeCoarseMeshIsLinearTime) {
     MeshResampleStats st;
     const Volume r = resample_mesh(m, d, ValueType::U8, &st);
     EXPECT_EQ(st.covered, uint64_t(d.count()));
+    // Linear work, counted rather than timed: each tet visits only its own
+    // points, so the points visited are the points covered plus the repeats on
+    // faces shared by two tets (at most one face's worth per tet here: 6 tets
+    // x 129^2), never tets x points (6 x 129^3); the rows scanned are at most
+    // one bounding box of rows per tet.
+    const uint64_t n = uint64_t(d.x), tets = m.tets.size();
+    ASSERT_GT(tets, 0u);
+    EXPECT_GE(st.points_visited, st.covered);
+    EXPECT_LE(st.points_visited, st.covered + tets * n * n);
+    EXPECT_LE(st.rows_scanned, tets * n * n);
+    EXPECT_LT(st.points_visited, 2 * uint64_t(d.count()));  // a per-tet scan of all points: 6x
+}
+
+TEST(MeshResample, WorkIsPointsCoveredPlusSharedFacesOnAFineMesh) {
+    // The full-resolution mesh of a 17^3 grid (6 tets per cell in the HT):
+    // every point visited once per tet containing it, so the visits are bounded
+    // by the covered points times the largest number of tets sharing a point,
+    // and far below tets x points.
+    const Dims d{17, 17, 17};
+    Volume v = Volume::allocate(d, ValueType::U8);
+    for (int64_t i = 0; i < v.count(); ++i) v.set_value(i, double(i % 251));
+    const HtModel model = HtModel::build(std::move(v));
+    LodQuery q;
+    q.full = true;
+    const TetMesh m = model.extract(q);
+    MeshResampleStats st;
+    resample_mesh(m, d, ValueType::U8, &st);
+    EXPECT_EQ(st.covered, uint64_t(d.count()));
+    // Each tet holds its 4 corners and no other grid point (side 1), so visits
+    // are exactly 4 per tet.
+    EXPECT_EQ(st.points_visited, 4 * uint64_t(m.tets.size()));
+    EXPECT_LE(st.rows_scanned, 4 * uint64_t(m.tets.size()));
 }
 
 TEST(MeshResample, BadInputThrows) {

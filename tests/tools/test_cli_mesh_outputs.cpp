@@ -50,6 +50,7 @@ long number_after(const std::string& text, const std::string& key) {
 }
 
 TEST(CliMeshOutputs, IsosurfaceWritesEveryFormatAndReportsCounts) {
+    long ply_faces = -1;
     for (const char* out : {"iso.ply", "iso.obj", "iso.off", "iso.stl"}) {
         SCOPED_TRACE(out);
         const CliResult r = cli("isosurface '" + ball_raw() + "' '" + tmp(out) + "' --isovalue 120");
@@ -57,19 +58,36 @@ TEST(CliMeshOutputs, IsosurfaceWritesEveryFormatAndReportsCounts) {
         EXPECT_TRUE(fs::exists(tmp(out)));
         const long faces = number_after(r.out, "surface");
         EXPECT_GT(faces, 100) << r.out;
+        if (std::string(out) == "iso.ply") ply_faces = faces;
         if (python_has("meshio")) {
             const CliResult m = sh("/usr/bin/python3 -c \"import meshio; m = meshio.read('" + tmp(out) +
                              "'); print(sum(len(c.data) for c in m.cells))\"");
-            if (std::string(out) != "iso.ply") {  // meshio cannot read binary PLY with face properties
-                ASSERT_EQ(m.code, 0) << m.err;
-                EXPECT_EQ(std::stol(m.out), faces);
-            }
+            ASSERT_EQ(m.code, 0) << m.err;  // the default binary PLY included
+            EXPECT_EQ(std::stol(m.out), faces);
+        } else {
+            std::printf("[  SKIP    ] meshio: /usr/bin/python3 cannot import meshio\n");
         }
+    }
+    // The default binary PLY also loads in gmsh, with every triangle.
+    if (sh("command -v gmsh").code == 0) {
+        const CliResult g = sh("gmsh -check '" + tmp("iso.ply") + "' 2>&1");
+        EXPECT_EQ(g.code, 0) << g.out;
+        EXPECT_EQ(g.out.find("Error"), std::string::npos) << g.out;
+        EXPECT_NE(g.out.find(" " + std::to_string(ply_faces) + " triangles"), std::string::npos) << g.out;
+    } else {
+        std::printf("[  SKIP    ] gmsh is not installed (apt-get install gmsh)\n");
     }
     const CliResult ascii = cli("isosurface '" + ball_raw() + "' '" + tmp("iso_a.ply") + "' --isovalue 120 --ascii");
     ASSERT_EQ(ascii.code, 0) << ascii.err;
     EXPECT_NE(slurp(tmp("iso_a.ply")).find("format ascii 1.0"), std::string::npos);
-    EXPECT_NE(slurp(tmp("iso_a.ply")).find("property float error"), std::string::npos);
+    EXPECT_EQ(slurp(tmp("iso_a.ply")).find("property float error"), std::string::npos);  // plain by default
+    const CliResult extras = cli("isosurface '" + ball_raw() + "' '" + tmp("iso_x.ply") +
+                                 "' --isovalue 120 --ascii --ply-extras");
+    ASSERT_EQ(extras.code, 0) << extras.err;
+    const std::string header = slurp(tmp("iso_x.ply")).substr(0, 400);
+    EXPECT_NE(header.find("property float nx"), std::string::npos) << header;
+    EXPECT_NE(header.find("property float error"), std::string::npos) << header;
+    EXPECT_NE(header.find("property int surface"), std::string::npos) << header;
 }
 
 TEST(CliMeshOutputs, IsosurfaceOnTlodAndWithTheMt) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "surface_weld.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod {
@@ -50,35 +51,49 @@ struct Surfacer {
     IsosurfaceStats& stats;
     std::vector<P3> world;                     // per mesh vertex
     std::vector<double> grad_weight;           // per surface vertex
+    std::vector<uint16_t> vertex_surface;      // per surface vertex
     std::unordered_map<uint64_t, uint32_t> edge_vertex;  // per isovalue
+    std::unordered_map<uint32_t, uint32_t> sample_vertex;  // per isovalue: samples equal to it
+    uint16_t current_surface = 0;              // the isovalue being cut
+
+    uint32_t new_vertex(const P3& p) {
+        out.points.push_back(p);
+        out.gradients.push_back({0, 0, 0});
+        grad_weight.push_back(0);
+        vertex_surface.push_back(current_surface);
+        return uint32_t(out.points.size() - 1);
+    }
 
     // Surface vertex on edge (a, b) for isovalue v; a and b straddle v.
     uint32_t vertex_on(uint32_t a, uint32_t b, double v) {
+        uint32_t o = a, i = b;
+        if (mesh.values[a] >= v) std::swap(o, i);
+        const double fo = mesh.values[o], fi = mesh.values[i];
+        // The inside end equals v: the vertex is that sample itself, shared by
+        // all its crossed edges (no interpolation, so bit-exactly the sample).
+        if (fi == v) {
+            auto [it, fresh] = sample_vertex.try_emplace(i, 0u);
+            if (fresh) it->second = new_vertex(world[i]);
+            return it->second;
+        }
         const uint64_t key = a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
-        auto [it, fresh] = edge_vertex.try_emplace(key, uint32_t(out.points.size()));
+        auto [it, fresh] = edge_vertex.try_emplace(key, 0u);
         if (fresh) {
             // Interpolate from the outside end (f < v) to the inside end (f >= v):
-            // t in (0, 1], computed the same way whichever tet asks first.
-            uint32_t o = a, i = b;
-            if (mesh.values[a] >= v) std::swap(o, i);
-            const double fo = mesh.values[o], fi = mesh.values[i];
+            // t in (0, 1), computed the same way whichever tet asks first.
             const double t = (v - fo) / (fi - fo);
             const P3& po = world[o];
             const P3& pi = world[i];
-            out.points.push_back({po[0] + t * (pi[0] - po[0]), po[1] + t * (pi[1] - po[1]),
-                                  po[2] + t * (pi[2] - po[2])});
-            out.gradients.push_back({0, 0, 0});
-            grad_weight.push_back(0);
+            it->second = new_vertex({po[0] + t * (pi[0] - po[0]), po[1] + t * (pi[1] - po[1]),
+                                     po[2] + t * (pi[2] - po[2])});
         }
         return it->second;
     }
 
-    void add_face(uint32_t a, uint32_t b, uint32_t c, float err, uint16_t surface) {
+    void add_face(uint32_t a, uint32_t b, uint32_t c, float err, uint16_t surface_id) {
         out.faces.push_back({a, b, c});
         out.face_error.push_back(err);
-        out.face_surface.push_back(surface);
-        const P3 n = cross(sub(out.points[b], out.points[a]), sub(out.points[c], out.points[a]));
-        if (dot(n, n) == 0.0) ++stats.degenerate_faces;
+        out.face_surface.push_back(surface_id);
     }
 
     void accumulate(uint32_t s, const P3& g, double w) {
@@ -171,13 +186,22 @@ TriangleMesh marching_tetrahedra(const TetMesh& mesh, std::span<const double> is
 
     TriangleMesh out;
     IsosurfaceStats stats;
-    Surfacer s{mesh, out, stats, {}, {}, {}};
+    Surfacer s{mesh, out, stats, {}, {}, {}, {}, {}};
     s.world.reserve(mesh.points.size());
     for (const auto& p : mesh.points) s.world.push_back(mesh.geometry.world(p));
     for (std::size_t i = 0; i < isovalues.size(); ++i) {
         s.edge_vertex.clear();
+        s.sample_vertex.clear();
+        s.current_surface = static_cast<uint16_t>(i);
         for (std::size_t t = 0; t < mesh.tets.size(); ++t)
             s.tet(t, isovalues[i], static_cast<uint16_t>(i));
+    }
+
+    detail::weld_surface({out, s.grad_weight, s.vertex_surface}, stats);
+    for (const auto& f : out.faces) {
+        const P3 n = cross(sub(out.points[f[1]], out.points[f[0]]),
+                           sub(out.points[f[2]], out.points[f[0]]));
+        if (dot(n, n) == 0.0) ++stats.zero_area_faces;
     }
 
     // Vertex gradients: weighted means; normals point down the gradient. A

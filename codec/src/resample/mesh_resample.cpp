@@ -84,7 +84,7 @@ template <class I, class T>
 void scan_tet(const std::array<std::array<int64_t, 3>, 4>& P, i128 D128,
               const std::array<int64_t, 3>& lo, const std::array<int64_t, 3>& hi,
               const std::array<double, 4>& f, const std::array<int64_t, 4>& fi, const Writer<T>& w,
-              const Dims& dims, std::vector<uint8_t>& covered) {
+              const Dims& dims, std::vector<uint8_t>& covered, MeshResampleStats& st) {
     // N_i(p) = g_i . p + c_i: g_i is the normal of the face opposite v_i, oriented so
     // that N_i(v_i) = D; c_i = -g_i . (a vertex of that face).
     std::array<std::array<I, 3>, 4> g;
@@ -117,6 +117,7 @@ void scan_tet(const std::array<std::array<int64_t, 3>, 4>& P, i128 D128,
     if (xa > xb) return;
     for (int64_t z = z0; z <= z1; ++z)
         for (int64_t y = y0; y <= y1; ++y) {
+            ++st.rows_scanned;
             std::array<I, 4> r;
             I xl = xa - lo[0], xh = xb - lo[0];  // relative x interval
             for (int i = 0; i < 4; ++i) {
@@ -130,6 +131,7 @@ void scan_tet(const std::array<std::array<int64_t, 3>, 4>& P, i128 D128,
                     xh = xl - 1;
             }
             if (xl > xh) continue;
+            st.points_visited += uint64_t(xh - xl + 1);
             const int64_t row = dims.index(0, y, z) + lo[0];
             for (int64_t xr = int64_t(xl); xr <= int64_t(xh); ++xr) {
                 // A point already written got this same value from its other tet.
@@ -193,9 +195,9 @@ void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
         }
         constexpr int64_t kSmall = int64_t{1} << 20;
         if (hi[0] - lo[0] <= kSmall && hi[1] - lo[1] <= kSmall && hi[2] - lo[2] <= kSmall)
-            scan_tet<int64_t>(P, D, lo, hi, f, fi, w, dims, covered);
+            scan_tet<int64_t>(P, D, lo, hi, f, fi, w, dims, covered, st);
         else
-            scan_tet<i128>(P, D, lo, hi, f, fi, w, dims, covered);
+            scan_tet<i128>(P, D, lo, hi, f, fi, w, dims, covered, st);
     }
 }
 

@@ -437,6 +437,13 @@ void write_array_attr(hid_t obj, const char* name, hid_t ftype, hid_t mtype, con
 
 }  // namespace
 
+std::vector<std::string> hdf5_unstorable_keys(const Volume& vol) {
+    std::vector<std::string> out;
+    for (const auto& [k, v] : vol.metadata)
+        if (k.empty() || k == "." || structural_attributes().count(k)) out.push_back(k);
+    return out;
+}
+
 void write_hdf5(const Volume& vol, const std::string& file, const std::string& dataset_in,
                 const Hdf5WriteOptions& options) {
     const std::string dataset = normalize_dataset(dataset_in);
@@ -505,8 +512,7 @@ void write_hdf5(const Volume& vol, const std::string& file, const std::string& d
         if (!vol.units.empty()) write_string_attr(d.get(), "units", vol.units, what);
         for (const auto& [k, v] : vol.metadata) {
             if (structural_attributes().count(k)) continue;  // written above from the Volume fields
-            if (k.empty() || k == ".")
-                throw Error(ErrorCode::InvalidArgument, what + ": metadata key '" + k + "' is not an attribute name");
+            if (k.empty() || k == ".") continue;  // not an attribute name: hdf5_unstorable_keys()
             write_string_attr(d.get(), k, v, what);
         }
         if (H5Fflush(f.get(), H5F_SCOPE_GLOBAL) < 0)

@@ -98,7 +98,8 @@ void write_surface(const TriangleMesh& s, const std::string& path, const std::st
     OmMesh m;
     // OFF stays plain "OFF": the NOFF variant with normals is refused by common
     // readers (meshio 5 among them), and OFF is chosen for compatibility.
-    const bool normals = options.normals && !s.normals.empty() && f != "stl" && f != "off";
+    const bool normals = options.normals && !s.normals.empty() && f != "stl" && f != "off" &&
+                         (f != "ply" || options.ply_extras);
     if (normals) m.request_vertex_normals();
     m.request_face_normals();
     std::vector<OmMesh::VertexHandle> vh;
@@ -113,7 +114,7 @@ void write_surface(const TriangleMesh& s, const std::string& path, const std::st
     }
     OpenMesh::FPropHandleT<float> error_prop;
     OpenMesh::FPropHandleT<int> surface_prop;
-    const bool props = f == "ply";
+    const bool props = f == "ply" && options.ply_extras;
     if (props) {
         m.add_property(error_prop, "error");
         m.property(error_prop).set_persistent(true);

@@ -28,6 +28,10 @@ bool is_internal_meta(const std::string& k) {
            k == "vector_type";
 }
 
+// Metadata key naming the grid type a volume was read from ("float", ...), so
+// that writing it again gives the same grid type (FloatGrid stays FloatGrid).
+constexpr const char* kGridTypeKey = "vdb:grid_type";
+
 // Names the reader turns into Volume fields and the writer owns.
 bool is_structural_meta(const std::string& k) {
     return k == "dims_xyz" || k == "tetlod_value_type" || k == "units";
@@ -286,6 +290,7 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
         vol.metadata[k] = it->second->str();
     }
     if (auto u = (*grid)["units"]) vol.units = u->str();
+    vol.metadata[kGridTypeKey] = short_type(*grid);  // write_vdb writes this grid type again
     // An integer volume stored as float (OpenVDB has no 8/16-bit grids) gets its
     // type back when the file says what it was and every value converts exactly.
     for (const char* key : {"tetlod_value_type", "original_dtype"}) {
@@ -317,7 +322,60 @@ typename GridT::Ptr make_grid(const Volume& vol) {
     return grid;
 }
 
+template <class GridT>
+openvdb::GridBase::Ptr make_grid_of(const Volume& vol) {
+    switch (vol.type) {
+        case ValueType::F32: return make_grid<GridT, float>(vol);
+        case ValueType::F64: return make_grid<GridT, double>(vol);
+        case ValueType::U8: return make_grid<GridT, uint8_t>(vol);
+        case ValueType::I8: return make_grid<GridT, int8_t>(vol);
+        case ValueType::U16: return make_grid<GridT, uint16_t>(vol);
+        case ValueType::I16: return make_grid<GridT, int16_t>(vol);
+        case ValueType::I32: return make_grid<GridT, int32_t>(vol);
+        case ValueType::U32: return make_grid<GridT, uint32_t>(vol);
+    }
+    return nullptr;
+}
+
+bool all_values_within(const Volume& vol, double lo, double hi) {
+    for (int64_t i = 0; i < vol.count(); ++i) {
+        const double v = vol.value(i);
+        if (!(v >= lo && v <= hi)) return false;
+    }
+    return true;
+}
+
+// The grid type to write: the one the volume was read from (metadata
+// vdb:grid_type) when it holds every value exactly, else f32 -> float, f64 ->
+// double, u32 -> int64, other integers -> int32.
+std::string grid_type_for(const Volume& vol) {
+    const ValueType t = vol.type;
+    const bool small_int = t == ValueType::U8 || t == ValueType::I8 || t == ValueType::U16 || t == ValueType::I16;
+    auto it = vol.metadata.find(kGridTypeKey);
+    const std::string hint = it == vol.metadata.end() ? "" : it->second;
+    if (hint == "float" &&
+        (t == ValueType::F32 || small_int || (!is_float(t) && all_values_within(vol, -16777216.0, 16777216.0))))
+        return hint;
+    if (hint == "double" && (t == ValueType::F64 || t == ValueType::F32 || !is_float(t))) return hint;
+    if (hint == "int32" && !is_float(t) && (t != ValueType::U32 || all_values_within(vol, 0, INT32_MAX)))
+        return hint;
+    if (hint == "int64" && !is_float(t)) return hint;
+    if (hint == "bool" && !is_float(t) && all_values_within(vol, 0, 1)) return hint;
+    if (t == ValueType::F32) return "float";
+    if (t == ValueType::F64) return "double";
+    return t == ValueType::U32 ? "int64" : "int32";
+}
+
+bool vdb_can_hold_key(const std::string& k) { return !k.empty() && !is_internal_meta(k) && !is_structural_meta(k); }
+
 }  // namespace
+
+std::vector<std::string> vdb_unstorable_keys(const Volume& vol) {
+    std::vector<std::string> out;
+    for (const auto& [k, v] : vol.metadata)
+        if (!vdb_can_hold_key(k)) out.push_back(k);
+    return out;
+}
 
 void write_vdb(const Volume& vol, const std::string& path) {
     const std::string what = "'" + path + "'";
@@ -331,25 +389,21 @@ void write_vdb(const Volume& vol, const std::string& path) {
             throw Error(ErrorCode::InvalidArgument, what + ": spacing must be positive for an OpenVDB transform");
     openvdb::initialize();
 
+    const std::string grid_type = grid_type_for(vol);
     openvdb::GridBase::Ptr grid;
-    switch (vol.type) {
-        case ValueType::F32: grid = make_grid<openvdb::FloatGrid, float>(vol); break;
-        case ValueType::F64: grid = make_grid<openvdb::DoubleGrid, double>(vol); break;
-        case ValueType::U8: grid = make_grid<openvdb::Int32Grid, uint8_t>(vol); break;
-        case ValueType::I8: grid = make_grid<openvdb::Int32Grid, int8_t>(vol); break;
-        case ValueType::U16: grid = make_grid<openvdb::Int32Grid, uint16_t>(vol); break;
-        case ValueType::I16: grid = make_grid<openvdb::Int32Grid, int16_t>(vol); break;
-        case ValueType::I32: grid = make_grid<openvdb::Int32Grid, int32_t>(vol); break;
-        case ValueType::U32: grid = make_grid<openvdb::Int64Grid, uint32_t>(vol); break;
-    }
+    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(vol);
+    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(vol);
+    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(vol);
+    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(vol);
+    else grid = make_grid_of<openvdb::Int32Grid>(vol);
     grid->setName(vol.field_name.empty() ? "density" : vol.field_name);
     const Vec3& s = vol.spacing;
     const Vec3& o = vol.origin;
     const double z = 0.0, one = 1.0;
     openvdb::Mat4d m(s[0], z, z, z, z, s[1], z, z, z, z, s[2], z, o[0], o[1], o[2], one);
     grid->setTransform(openvdb::math::Transform::createLinearTransform(m));
-    for (const auto& [k, v] : vol.metadata)
-        if (!is_internal_meta(k) && !is_structural_meta(k)) grid->insertMeta(k, openvdb::StringMetadata(v));
+    for (const auto& [k, v] : vol.metadata)  // the others: vdb_unstorable_keys()
+        if (vdb_can_hold_key(k) && k != kGridTypeKey) grid->insertMeta(k, openvdb::StringMetadata(v));
     grid->insertMeta("dims_xyz", openvdb::Vec3IMetadata(openvdb::Vec3i(static_cast<int32_t>(vol.dims.x),
                                                                        static_cast<int32_t>(vol.dims.y),
                                                                        static_cast<int32_t>(vol.dims.z))));

@@ -300,20 +300,31 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
     return vol;
 }
 
+namespace {
+
+// A MetaImage line is "Key = value": a key with '=' or white space would not
+// read back, and a MetaIO field name would be taken for that field.
+bool metaimage_can_hold_key(const std::string& k) {
+    if (k.empty() || structural_fields().count(to_lower(k))) return false;
+    for (char c : k)
+        if (c == '=' || std::isspace(static_cast<unsigned char>(c))) return false;
+    return true;
+}
+
+}  // namespace
+
+std::vector<std::string> metaimage_unstorable_keys(const Volume& vol) {
+    std::vector<std::string> out;
+    for (const auto& [k, v] : vol.metadata)
+        if (!metaimage_can_hold_key(k)) out.push_back(k);
+    return out;
+}
+
 void write_metaimage(const Volume& vol, const std::string& path, const MetaImageWriteOptions& options) {
     const std::string what = "'" + path + "'";
     validate_dims(vol.dims, what);
     if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
         throw Error(ErrorCode::InvalidArgument, what + ": volume data size does not match its dims");
-    for (const auto& [k, v] : vol.metadata) {
-        bool ok = !k.empty() && structural_fields().count(to_lower(k)) == 0;
-        for (char c : k)
-            if (c == '=' || std::isspace(static_cast<unsigned char>(c))) ok = false;
-        if (!ok)
-            throw Error(ErrorCode::InvalidArgument,
-                        what + ": metadata key '" + k +
-                            "' cannot be stored in MetaImage (empty, holds '=' or white space, or is a MetaIO field)");
-    }
     const bool detached = options.layout == MetaImageWriteOptions::Layout::Detached ||
                           (options.layout == MetaImageWriteOptions::Layout::Auto &&
                            to_lower(std::filesystem::path(path).extension().string()) == ".mhd");
@@ -332,7 +343,8 @@ void write_metaimage(const Volume& vol, const std::string& path, const MetaImage
              std::to_string(vol.dims.z) + "\n";
         if (!vol.field_name.empty()) h += "Name = " + escape(vol.field_name) + "\n";
         if (!vol.units.empty()) h += "units = " + escape(vol.units) + "\n";
-        for (const auto& [k, v] : vol.metadata) h += k + " = " + escape(v) + "\n";
+        for (const auto& [k, v] : vol.metadata)  // the others: metaimage_unstorable_keys()
+            if (metaimage_can_hold_key(k)) h += k + " = " + escape(v) + "\n";
         h += std::string("ElementType = ") + met_type_name(vol.type) + "\n";
         return h;
     };

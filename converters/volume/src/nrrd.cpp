@@ -393,15 +393,28 @@ std::string one_line(const std::string& s) {
 
 }  // namespace
 
+namespace {
+
+// A NRRD key/value line is "key:=value": the key cannot be empty, hold ":="
+// or break the line.
+bool nrrd_can_hold_key(const std::string& k) {
+    return !k.empty() && k.find(":=") == std::string::npos && k.find('\n') == std::string::npos &&
+           k.find('\r') == std::string::npos;
+}
+
+}  // namespace
+
+std::vector<std::string> nrrd_unstorable_keys(const Volume& vol) {
+    std::vector<std::string> out;
+    for (const auto& [k, v] : vol.metadata)
+        if (!nrrd_can_hold_key(k)) out.push_back(k);
+    return out;
+}
+
 void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptions& options) {
     validate_dims(vol.dims, "'" + path + "'");
     if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
         throw Error(ErrorCode::InvalidArgument, "'" + path + "': volume data size does not match its dims");
-    for (const auto& [k, v] : vol.metadata)
-        if (k.empty() || k.find(":=") != std::string::npos || k.find('\n') != std::string::npos)
-            throw Error(ErrorCode::InvalidArgument,
-                        "'" + path + "': metadata key '" + k + "' cannot be stored in NRRD (empty, or holds := "
-                        "or a line break)");
     bool detached = options.layout == NrrdWriteOptions::Layout::Detached ||
                     (options.layout == NrrdWriteOptions::Layout::Auto &&
                      to_lower(std::filesystem::path(path).extension().string()) == ".nhdr");
@@ -441,7 +454,7 @@ void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptio
     if (!vol.field_name.empty()) hdr += "content: " + one_line(vol.field_name) + "\n";
     if (!vol.units.empty()) hdr += "sample units: " + one_line(vol.units) + "\n";
     for (const auto& [k, v] : vol.metadata) {
-        if (written_native.count(k)) continue;
+        if (written_native.count(k) || !nrrd_can_hold_key(k)) continue;  // see nrrd_unstorable_keys()
         hdr += escape(k) + ":=" + escape(v) + "\n";
     }
     Compression comp = options.gzip ? Compression::Deflate : Compression::None;

@@ -162,4 +162,30 @@ void write_volume(const Volume& volume, const std::string& path, const std::stri
     }
 }
 
+std::vector<std::string> metadata_keys_lost(const Volume& volume, const std::string& path,
+                                            const std::string& format) {
+    switch (locate_volume(path, format).format) {
+        case VolumeFormat::Raw: {
+            std::vector<std::string> all;
+            for (const auto& [k, v] : volume.metadata) all.push_back(k);
+            return all;
+        }
+        case VolumeFormat::Nrrd: return nrrd_unstorable_keys(volume);
+        case VolumeFormat::MetaImage: return metaimage_unstorable_keys(volume);
+        case VolumeFormat::Vdb:
+#if TETLOD_HAVE_OPENVDB
+            return vdb_unstorable_keys(volume);
+#else
+            return {};
+#endif
+        case VolumeFormat::Hdf5:
+#if TETLOD_HAVE_HDF5
+            return hdf5_unstorable_keys(volume);
+#else
+            return {};
+#endif
+    }
+    return {};
+}
+
 }  // namespace tetlod

@@ -259,18 +259,27 @@ TEST(MtExtract, QueriesPassTheIndependentChecker) {
 }
 
 TEST(MtExtract, MatchesTheExplicitDagOracle) {
+    // Counted, so that the test fails if it ever compares nothing (a model
+    // built without its history, an empty query list, an empty oracle mesh).
+    std::size_t models = 0, compared = 0, nonempty = 0;
     for (const Case& c : small_cases()) {
         const Volume* vol;
         const MtModel& m = model_of(c, &vol);
-        if (!m.history()) continue;
+        ASSERT_NE(m.history(), nullptr) << case_str(c) << ": built without the explicit history";
+        ++models;
         for (const LodQuery& q : queries_for(*vol)) {
             SCOPED_TRACE(case_str(c) + " " + query_str(q));
             const auto expect = oracle_extract(m, *vol, q);
             const auto got = mesh_keys(m.extract(q));
             EXPECT_EQ(got.size(), expect.size());
             EXPECT_TRUE(got == expect);
+            ++compared;
+            nonempty += !expect.empty();
         }
     }
+    EXPECT_EQ(models, small_cases().size());
+    EXPECT_GE(compared, 8 * small_cases().size());  // at least 8 queries per model
+    EXPECT_EQ(nonempty, compared);                  // every oracle mesh has tets
 }
 
 TEST(MtExtract, CoarserBoundsGiveFewerTets) {

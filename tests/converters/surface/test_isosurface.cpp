@@ -160,10 +160,65 @@ TEST(Isosurface, SeveralIsovaluesGiveNestedClosedSpheres) {
     EXPECT_EQ(topology(s).euler(), 4);
 }
 
-TEST(Isosurface, SamplesEqualToTheIsovalueKeepItClosed) {
-    // Integer field with large plateaus exactly at the isovalue: every tie is
-    // "inside", so the surface stays closed and oriented (possibly with
-    // zero-area faces).
+// What welding guarantees where samples equal the isovalue, checked from the
+// faces alone: no face uses a vertex twice or has zero area, no two vertices of
+// one surface share a position, every vertex is one fan of faces (a manifold
+// vertex), and the directed edges still balance (closed and consistently
+// oriented).
+void expect_welded(const TriangleMesh& s) {
+    std::map<std::pair<std::array<double, 3>, int>, uint32_t> at;
+    std::vector<int> surface_of(s.points.size(), -1);
+    for (std::size_t i = 0; i < s.faces.size(); ++i)
+        for (uint32_t v : s.faces[i]) surface_of[v] = s.face_surface[i];
+    for (uint32_t v = 0; v < s.points.size(); ++v) {
+        EXPECT_GE(surface_of[v], 0) << "unused vertex " << v;
+        auto [it, fresh] = at.try_emplace({s.points[v], surface_of[v]}, v);
+        EXPECT_TRUE(fresh) << "vertices " << it->second << " and " << v << " coincide";
+    }
+    std::vector<std::vector<std::size_t>> around(s.points.size());
+    for (std::size_t i = 0; i < s.faces.size(); ++i) {
+        const auto& f = s.faces[i];
+        ASSERT_TRUE(f[0] != f[1] && f[1] != f[2] && f[0] != f[2]) << "face " << i;
+        const auto &a = s.points[f[0]], &b = s.points[f[1]], &c = s.points[f[2]];
+        const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+        const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+        const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+        EXPECT_GT(nx * nx + ny * ny + nz * nz, 0.0) << "zero-area face " << i;
+        for (uint32_t v : f) around[v].push_back(i);
+    }
+    // One fan: the faces around v, joined through shared edges (v, w), form
+    // one group (flood fill from the first face).
+    for (uint32_t v = 0; v < s.points.size(); ++v) {
+        const auto& fs = around[v];
+        if (fs.empty()) continue;
+        std::vector<char> seen(fs.size(), 0);
+        std::vector<std::size_t> stack{0};
+        seen[0] = 1;
+        std::size_t reached = 1;
+        while (!stack.empty()) {
+            const std::size_t k = stack.back();
+            stack.pop_back();
+            for (std::size_t j = 0; j < fs.size(); ++j) {
+                if (seen[j]) continue;
+                int shared = 0;
+                for (uint32_t x : s.faces[fs[k]])
+                    for (uint32_t y : s.faces[fs[j]]) shared += x == y;
+                if (shared >= 2) seen[j] = 1, ++reached, stack.push_back(j);
+            }
+        }
+        EXPECT_EQ(reached, fs.size()) << "vertex " << v << " is where several fans touch";
+    }
+    const Topology t = topology(s);
+    EXPECT_EQ(t.boundary_edges, 0u);
+    EXPECT_EQ(t.nonmanifold_edges, 0u);
+    EXPECT_EQ(t.misoriented_edges, 0u);
+}
+
+TEST(Isosurface, SamplesEqualToTheIsovalueAreWeldedAndZeroAreaFacesDropped) {
+    // Integer field with large plateaus exactly at the isovalue: the vertices
+    // of all crossed edges at a sample equal to V are that sample, welded into
+    // one; faces left with zero area are dropped; the surface stays closed,
+    // oriented and manifold.
     Volume v = Volume::allocate(Dims{25, 25, 25}, ValueType::U8);
     for (int z = 0; z < 25; ++z)
         for (int y = 0; y < 25; ++y)
@@ -178,14 +233,69 @@ TEST(Isosurface, SamplesEqualToTheIsovalueKeepItClosed) {
         const double iso[] = {iso_v};
         IsosurfaceStats stats;
         const TriangleMesh s = marching_tetrahedra(mesh, iso, &stats);
-        const Topology t = topology(s);
-        EXPECT_EQ(t.boundary_edges, 0u);
-        EXPECT_EQ(t.nonmanifold_edges, 0u);
-        EXPECT_EQ(t.misoriented_edges, 0u);
-        EXPECT_EQ(t.euler(), 2);
+        expect_welded(s);
+        EXPECT_EQ(topology(s).euler(), 2);
         EXPECT_GT(enclosed_volume(s), 0.0);
         EXPECT_GT(stats.degenerate_faces, 0u);  // the ties really happen
+        EXPECT_EQ(stats.zero_area_faces, 0u);
+        EXPECT_EQ(stats.nonmanifold_edges, 0u);
     }
+}
+
+TEST(Isosurface, SurfaceTouchingItselfAtASampleIsSplitThere) {
+    // A column of three samples, the middle one equal to V: the inside region
+    // is pinched at that sample, where the welded surface would be two cones
+    // sharing one vertex. The vertex is split, one per cone, and the copies
+    // moved apart a little, so every vertex is manifold and none coincide.
+    Volume v = Volume::allocate(Dims{5, 5, 5}, ValueType::U8);
+    v.set_value(v.dims.index(2, 2, 1), 10);
+    v.set_value(v.dims.index(2, 2, 2), 5);
+    v.set_value(v.dims.index(2, 2, 3), 10);
+    const double iso[] = {5.0};
+    IsosurfaceStats stats;
+    const TriangleMesh s = marching_tetrahedra(full_mesh(std::move(v)), iso, &stats);
+    EXPECT_GT(stats.split_vertices, 0u);
+    expect_welded(s);
+    EXPECT_GT(enclosed_volume(s), 0.0);
+    // The split copies stay within 1/100 of a grid step of the sample.
+    std::size_t near = 0;
+    for (const auto& p : s.points)
+        if (std::abs(p[0] - 2) < 0.01 && std::abs(p[1] - 2) < 0.01 && std::abs(p[2] - 2) < 0.01) ++near;
+    EXPECT_EQ(near, stats.split_vertices + 1);
+}
+
+TEST(Isosurface, SurfaceTouchingItselfAlongAnEdgeIsSplitThere) {
+    // Two columns side by side, their middle samples equal to V and adjacent:
+    // the inside region is pinched along the edge between them, where the
+    // welded surface would have an edge in four faces. Both ends split.
+    Volume v = Volume::allocate(Dims{6, 5, 5}, ValueType::U8);
+    for (int x : {2, 3}) {
+        v.set_value(v.dims.index(x, 2, 1), 10);
+        v.set_value(v.dims.index(x, 2, 2), 5);
+        v.set_value(v.dims.index(x, 2, 3), 10);
+    }
+    const double iso[] = {5.0};
+    IsosurfaceStats stats;
+    const TriangleMesh s = marching_tetrahedra(full_mesh(std::move(v)), iso, &stats);
+    EXPECT_GE(stats.split_vertices, 2u);
+    EXPECT_EQ(stats.nonmanifold_edges, 0u);
+    expect_welded(s);
+    EXPECT_GT(enclosed_volume(s), 0.0);
+}
+
+TEST(Isosurface, TwoSidedSheetOfSamplesEqualToTheIsovalueVanishes) {
+    // A single plane of samples equal to V between outside samples: the
+    // inside region has no volume, so nothing is left (each face came with its
+    // opposite twin, and both are removed).
+    Volume v = Volume::allocate(Dims{5, 5, 5}, ValueType::U8);
+    for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 5; ++x) v.set_value(v.dims.index(x, y, 2), 7);
+    const double iso[] = {7.0};
+    IsosurfaceStats stats;
+    const TriangleMesh s = marching_tetrahedra(full_mesh(std::move(v)), iso, &stats);
+    EXPECT_EQ(s.faces.size(), 0u);
+    EXPECT_EQ(s.points.size(), 0u);
+    EXPECT_GT(stats.cancelled_faces + stats.degenerate_faces, 0u);
 }
 
 TEST(Isosurface, TorusHasEulerCharacteristicZero) {

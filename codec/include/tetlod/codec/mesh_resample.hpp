@@ -31,6 +31,9 @@ struct MeshResampleStats {
     uint64_t grid_points = 0;   // points of the output grid
     uint64_t covered = 0;       // of which inside at least one tet
     uint64_t degenerate_tets = 0;  // tets of zero volume (skipped)
+    // Work done (the cost above, counted, so tests can check it without timing):
+    uint64_t rows_scanned = 0;    // (y, z) rows of the tets' clipped bounding boxes
+    uint64_t points_visited = 0;  // grid points inside a tet, summed over tets
 };
 
 /// The volume of `dims` x `type` that `mesh` represents: each grid point inside a

@@ -18,6 +18,7 @@
 // Large datasets are read in bounded slabs. Errors (missing file or dataset,
 // wrong type, truncated file) are tetlod::Error naming the file and dataset.
 #include <string>
+#include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
@@ -41,5 +42,9 @@ struct Hdf5WriteOptions {
 /// renamed over `file` (any previous content of `file` is replaced).
 void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
                 const Hdf5WriteOptions& options = {});
+
+/// The metadata keys write_hdf5 leaves out, in key order: no attribute name
+/// ("", "."), or the name of an attribute written from the Volume's own fields.
+std::vector<std::string> hdf5_unstorable_keys(const Volume& volume);
 
 }  // namespace tetlod

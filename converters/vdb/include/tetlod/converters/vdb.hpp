@@ -17,7 +17,9 @@
 //    shear, flip, or non-linear (frustum) transform is ErrorCode::UnsupportedFeature.
 //  - grid metadata go to Volume::metadata as text (except OpenVDB's own file_*
 //    statistics). "tetlod_value_type" or "original_dtype" restores an integer
-//    type stored as float when every value converts exactly.
+//    type stored as float when every value converts exactly. "vdb:grid_type"
+//    records the grid's value type (float, double, int32, int64, bool), so
+//    write_vdb writes the same grid type again.
 // Safe on untrusted input: errors from the library become tetlod::Error naming
 // the file.
 #include <string>
@@ -33,12 +35,20 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options = {});
 /// Names and types ("float", "int32", ...) of every grid in the file.
 std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path);
 
-/// Writes one grid named after Volume::field_name: f32 -> FloatGrid, f64 ->
-/// DoubleGrid, other integer types -> Int32Grid (u32 -> Int64Grid) with metadata
-/// "tetlod_value_type" so reading restores the exact type. Voxels equal (bit for
+/// Writes one grid named after Volume::field_name. Grid type: the one the volume
+/// was read from (read_vdb sets metadata "vdb:grid_type": float, double, int32,
+/// int64 or bool) when it holds every value exactly, so a FloatGrid comes back
+/// a FloatGrid; otherwise f32 -> FloatGrid, f64 -> DoubleGrid, other integer
+/// types -> Int32Grid (u32 -> Int64Grid). Metadata "tetlod_value_type" lets
+/// reading restore the exact value type. Metadata keys a grid cannot hold
+/// (empty, OpenVDB's own or the ones written from Volume fields) are left out:
+/// callers report vdb_unstorable_keys(). Voxels equal (bit for
 /// bit) to the background 0 stay inactive; "dims_xyz" records the full extent.
 /// Transform: scale = spacing, translation = origin. Metadata as string metadata.
 /// Written to a temporary file in the same directory, then renamed over `path`.
 void write_vdb(const Volume& volume, const std::string& path);
+
+/// The metadata keys write_vdb leaves out, in key order.
+std::vector<std::string> vdb_unstorable_keys(const Volume& volume);
 
 }  // namespace tetlod

@@ -23,6 +23,7 @@
 // volume is allocated; the data are read through bounded buffers. Safe on
 // untrusted input: every problem is a tetlod::Error naming the file.
 #include <string>
+#include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
@@ -41,10 +42,14 @@ struct MetaImageWriteOptions {
 };
 
 /// Writes the volume with identity TransformMatrix, Offset, ElementSpacing,
-/// Name (field name), "units" and each metadata entry as its own field. Throws
-/// InvalidArgument for a metadata key MetaImage cannot hold (empty, spaces, '=',
-/// or a MetaIO field name). Each file is written atomically; a detached header
-/// after its data.
+/// Name (field name), "units" and each metadata entry as its own field. A
+/// metadata key MetaImage cannot hold (empty, white space, '=', or a MetaIO
+/// field name such as "nrrd:space units") is left out, never refused: callers
+/// report metaimage_unstorable_keys(). Each file is written atomically; a
+/// detached header after its data.
 void write_metaimage(const Volume& volume, const std::string& path, const MetaImageWriteOptions& options = {});
+
+/// The metadata keys write_metaimage leaves out, in key order.
+std::vector<std::string> metaimage_unstorable_keys(const Volume& volume);
 
 }  // namespace tetlod

@@ -22,6 +22,7 @@
 // volume is allocated; the data are read through bounded buffers. Safe on
 // untrusted input: every problem is a tetlod::Error naming the file.
 #include <string>
+#include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
@@ -43,8 +44,12 @@ struct NrrdWriteOptions {
 /// origin", the field name as "content", units as "sample units" and every
 /// metadata entry as a key/value pair; "nrrd:space", "nrrd:kinds", "nrrd:centers"
 /// and "nrrd:space units" are written back as those fields when they fit 3 axes.
-/// Throws InvalidArgument for a metadata key holding ":=" or a line break.
-/// Each file is written atomically; a detached header is written after its data.
+/// A metadata key NRRD cannot hold (empty, ":=" or a line break) is left out,
+/// never refused: callers report nrrd_unstorable_keys(). Each file is written
+/// atomically; a detached header is written after its data.
 void write_nrrd(const Volume& volume, const std::string& path, const NrrdWriteOptions& options = {});
+
+/// The metadata keys write_nrrd leaves out, in key order.
+std::vector<std::string> nrrd_unstorable_keys(const Volume& volume);
 
 }  // namespace tetlod

@@ -9,6 +9,7 @@
 // A format left out of this build (TETLOD_WITH_OPENVDB / TETLOD_WITH_HDF5 off)
 // gives ErrorCode::NotBuilt; an unknown extension ErrorCode::InvalidArgument.
 #include <string>
+#include <vector>
 
 #include "tetlod/converters/features.hpp"
 #include "tetlod/converters/volume_read_options.hpp"
@@ -40,5 +41,12 @@ Volume read_volume(const std::string& path, const VolumeReadOptions& options = {
 /// Writes `volume` in the format chosen by `path` (or `format`), atomically:
 /// nothing is left at the target if writing fails.
 void write_volume(const Volume& volume, const std::string& path, const std::string& format = "");
+
+/// The metadata keys of `volume` that write_volume(volume, path, format) leaves
+/// out because the format cannot hold them (raw: every key; the others: keys
+/// their syntax cannot express). Writers never refuse such metadata; callers
+/// report these keys (tetlod prints a warning naming them).
+std::vector<std::string> metadata_keys_lost(const Volume& volume, const std::string& path,
+                                            const std::string& format = "");
 
 }  // namespace tetlod
