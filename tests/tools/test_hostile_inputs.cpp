@@ -71,10 +71,10 @@ void write_text(const std::string& path, const std::string& s) { write_file(path
 /// Expects a refusal: exit 4, every word of `needles` in stderr, bounded memory,
 /// and no output file left behind.
 void expect_refused(const std::string& args, const std::string& tag, const std::vector<std::string>& needles,
-                    const std::string& output = "") {
+                    const std::string& output = "", int exit_code = 4) {
     SCOPED_TRACE(tag + ": tetlod " + args);
     const Measured m = run_measured(args, tag);
-    EXPECT_EQ(m.code, 4) << m.err;
+    EXPECT_EQ(m.code, exit_code) << m.err;
     for (const auto& n : needles) {
         EXPECT_NE(m.err.find(n), std::string::npos) << "missing '" << n << "' in: " << m.err;
     }
@@ -310,6 +310,15 @@ TEST(HostileInputs, DataFilePatternOverflowRefused) {
         write_text(mhd, "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\nElementDataFile = s%d " + range + "\n");
         expect_refused("convert '" + mhd + "' '" + dir + "/q.tlod'", "mhd_pattern", {mhd, "ElementDataFile"});
     }
+    // A million files named by a pattern: the first missing one stops the read
+    // (missing file: exit 3) before the others are listed.
+    {
+        const std::string big = dir + "/big.nhdr";
+        write_text(big, "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 1024\nencoding: raw\n"
+                        "data file: a_rather_long_slice_name_%d.raw 1 1048576 1\n");
+        expect_refused("convert '" + big + "' '" + dir + "/big.tlod'", "nrrd_pattern_1m",
+                       {big, "a_rather_long_slice_name_1.raw"}, dir + "/big.tlod", 3);
+    }
     // An empty range (wrong step sign) is refused as such.
     const std::string nhdr = dir + "/e.nhdr";
     write_text(nhdr, "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\ndata file: s%d 1 5 -1\n");
@@ -346,6 +355,14 @@ TEST(HostileInputs, DataFilesOutsideTheHeaderFolderNeedTheFlag) {
         const auto ok = tetlod_cli_test::run("convert '" + hp + "' '" + out + "' --allow-external-data");
         EXPECT_EQ(ok.code, 0) << ok.err;
         EXPECT_TRUE(fs::exists(out));
+    }
+    // A header given by a bare relative name (no folder part) reads its data file beside it.
+    {
+        write_text(dir + "/hdr/rel.nhdr",
+                   "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\ndata file: inside.raw\n");
+        const auto rel = tetlod_cli_test::sh("cd '" + dir + "/hdr' && '" + TETLOD_CLI_PATH +
+                                             "' convert rel.nhdr rel.tlod");
+        EXPECT_EQ(rel.code, 0) << rel.err;
     }
     // A name inside the folder (even spelled with "..") needs no flag.
     const std::string hp = dir + "/hdr/e.nhdr";

@@ -264,7 +264,8 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
         pieces.push_back({path, h.data_offset, 0, header_size});
     } else if (!tok.empty() && to_lower(tok[0]) == "list") {
         if (tok.size() > 1) subdim = parse_int(tok[1], what + " ElementDataFile subdim");
-        names = h.list_files;
+        for (const auto& nm : h.list_files)
+            names.push_back(resolve_data_file(path, nm, options.allow_external_data, what));
         if (names.empty()) throw Error(ErrorCode::CorruptData, what + ": ElementDataFile = LIST names no files");
     } else if (tok.size() >= 4 && tok[0].find('%') != std::string::npos) {
         int64_t lo = parse_int(tok[1], what + " ElementDataFile min");
@@ -273,10 +274,12 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
         if (tok.size() > 4) subdim = parse_int(tok[4], what + " ElementDataFile subdim");
         const int64_t count =
             pattern_file_count(lo, hi, step, std::min(kMaxDataFiles, dims.count()), what, "ElementDataFile");
-        for (int64_t i = 0; i < count; ++i) names.push_back(format_file_pattern(tok[0], lo + i * step, what));
+        for (int64_t i = 0; i < count; ++i)
+            names.push_back(resolve_data_file(path, format_file_pattern(tok[0], lo + i * step, what),
+                                              options.allow_external_data, what));
     } else {
         if (df.empty()) throw Error(ErrorCode::CorruptData, what + ": empty ElementDataFile");
-        names.push_back(df);
+        names.push_back(resolve_data_file(path, df, options.allow_external_data, what));
     }
     if (subdim != -1) {
         if (subdim < 1 || subdim > nd)
@@ -289,7 +292,7 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
     }
     for (const auto& nm : names)
         // MetaIO applies HeaderSize to each data file.
-        pieces.push_back({resolve_data_file(path, nm, options.allow_external_data, what), 0, 0, header_size});
+        pieces.push_back({nm, 0, 0, header_size});
 
     Volume vol = read_samples(dims, *type, pieces, compression, endian, what);
     vol.spacing = options.spacing.value_or(spacing);

@@ -240,7 +240,7 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
     std::vector<std::string> names;
     if (!tok.empty() && tok[0] == "LIST") {
         if (tok.size() > 1) subdim = parse_int(tok[1], what + " data file subdim");
-        names = h.list_files;
+        for (const auto& n : h.list_files) names.push_back(resolve_data_file(path, n, allow_external, what));
         if (names.empty()) throw Error(ErrorCode::CorruptData, what + ": \"data file: LIST\" names no files");
     } else if (tok.size() >= 4 && tok[0].find('%') != std::string::npos) {
         int64_t lo = parse_int(tok[1], what + " data file min");
@@ -249,9 +249,11 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
         if (tok.size() > 4) subdim = parse_int(tok[4], what + " data file subdim");
         const int64_t n =
             pattern_file_count(lo, hi, step, std::min(kMaxDataFiles, dims.count()), what, "\"data file\"");
-        for (int64_t i = 0; i < n; ++i) names.push_back(format_file_pattern(tok[0], lo + i * step, what));
+        for (int64_t i = 0; i < n; ++i)
+            names.push_back(resolve_data_file(path, format_file_pattern(tok[0], lo + i * step, what),
+                                              allow_external, what));
     } else {
-        names.push_back(*df);
+        names.push_back(resolve_data_file(path, *df, allow_external, what));
     }
     if (subdim != -1) {
         if (subdim < 1 || subdim > dimension)
@@ -264,8 +266,7 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
                         what + ": " + std::to_string(names.size()) + " data files of " + std::to_string(subdim) +
                             "-D slabs do not hold the " + std::to_string(dims.count()) + " declared samples");
     }
-    for (const auto& n : names)
-        pieces.push_back({resolve_data_file(path, n, allow_external, what), 0, line_skip, byte_skip});
+    for (const auto& n : names) pieces.push_back({n, 0, line_skip, byte_skip});
     return pieces;
 }
 

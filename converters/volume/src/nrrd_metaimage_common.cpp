@@ -365,9 +365,24 @@ std::string resolve_data_file(const std::string& header_path, const std::string&
                               const std::string& what) {
     namespace fs = std::filesystem;
     const std::string resolved = resolve_beside(header_path, name);
-    if (allow_external) return resolved;
+    // Checked as each name is resolved, so a pattern naming a million missing
+    // files fails at the first instead of listing them all; FIFOs and devices
+    // would block or never end.
+    auto require_regular = [&] {
+        std::error_code sec;
+        const auto st = fs::status(resolved, sec);
+        if (sec || !fs::exists(st))
+            throw Error(ErrorCode::IoError, what + ": cannot open data file '" + resolved + "': " +
+                                                (sec ? sec.message() : std::string("no such file")));
+        if (!fs::is_regular_file(st))
+            throw Error(ErrorCode::IoError, what + ": data file '" + resolved + "' is not a regular file");
+        return resolved;
+    };
+    if (allow_external) return require_regular();
     std::error_code ec;
-    const fs::path dir = fs::absolute(fs::path(header_path).parent_path(), ec).lexically_normal();
+    fs::path parent = fs::path(header_path).parent_path();
+    if (parent.empty()) parent = ".";
+    const fs::path dir = fs::absolute(parent, ec).lexically_normal();
     const fs::path file = fs::absolute(fs::path(resolved), ec).lexically_normal();
     const fs::path rel = file.lexically_relative(dir);
     const bool inside = !ec && !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
@@ -375,7 +390,7 @@ std::string resolve_data_file(const std::string& header_path, const std::string&
         throw Error(ErrorCode::UnsupportedFeature,
                     what + ": the header names the data file '" + name + "', which is outside the header's folder; "
                            "pass --allow-external-data to read it");
-    return resolved;
+    return require_regular();
 }
 
 int64_t pattern_file_count(int64_t lo, int64_t hi, int64_t step, int64_t max_files, const std::string& what,
