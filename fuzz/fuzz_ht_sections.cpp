@@ -4,6 +4,7 @@
 // with a valid header and table (types, cycles and bricks from the HT_HEADER's
 // geometry), so every mutation reaches the layout checks and the range decoders.
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -36,8 +37,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         for (int a = 0; a < 3; ++a) box[a] = int64_t(tlod::load_le(h + 8 + 4 * a, 4));
         for (int t = k; t >= 0 && next + 1 < parts.size(); --t) {
             const int64_t side = int64_t{1} << (t + 1 + g);
+            // Capped by the parts there are (no overflow on a hostile box).
+            const int64_t cap = int64_t(parts.size());
             int64_t nb = 1;
-            for (int a = 0; a < 3; ++a) nb *= std::max<int64_t>(1, (box[a] + side - 1) / side);
+            for (int a = 0; a < 3; ++a) nb = std::min(cap, nb * std::min(cap, std::max<int64_t>(1, (box[a] + side - 1) / side)));
             for (int64_t b = 0; b < nb && next + 1 < parts.size(); ++b) {
                 for (uint32_t type : {uint32_t(tlod::kSectionHtField), uint32_t(tlod::kSectionHtErrors)}) {
                     const auto& p = parts[next++];

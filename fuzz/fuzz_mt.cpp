@@ -35,7 +35,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         uint32_t d[3];
         std::memcpy(d, bytes.data() + 8, 12);
         const uint8_t t = bytes[20];
-        if (d[0] >= 1 && d[1] >= 1 && d[2] >= 1 && uint64_t(d[0]) * d[1] * d[2] <= 4096 && t >= 1 && t <= 8) {
+        const bool small = d[0] >= 1 && d[1] >= 1 && d[2] >= 1 && d[0] <= 4096 && d[1] <= 4096 && d[2] <= 4096 &&
+                           uint64_t(d[0]) * d[1] * d[2] <= 4096;
+        if (small && t >= 1 && t <= 8) {
             field = Volume::allocate({d[0], d[1], d[2]}, ValueType(t));
             for (std::size_t i = 0; i < field.data.size(); ++i) field.data[i] = std::byte(uint8_t(i * 37));
             supplied = &field;
