@@ -1,11 +1,18 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer target for the .tlod reader with clang under AddressSanitizer
-# and UndefinedBehaviorSanitizer (every library it links is instrumented too) and
-# runs it for a bounded time on a scratch copy of the seed corpus.
-#   bash scripts/fuzz.sh [SECONDS]   (default 60)
+# Builds every libFuzzer target (fuzz/CMakeLists.txt) with clang under
+# AddressSanitizer and UndefinedBehaviorSanitizer (every library they link is
+# instrumented too) and runs EACH for a bounded time on a scratch copy of its
+# seed corpus, printing libFuzzer's final stats (executions, coverage).
+#   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]   (default 60; all targets)
+# Targets: tlod_reader ht_sections mt metadata nrrd metaimage
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
+shift || true
+all=(tlod_reader ht_sections mt metadata nrrd metaimage)
+if [ "$#" -eq 0 ]; then targets=("${all[@]}"); else targets=("$@"); fi
+declare -A corpus_of=([tlod_reader]=reader [ht_sections]=ht_sections [mt]=mt [metadata]=metadata
+                      [nrrd]=nrrd [metaimage]=metaimage)
 san="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 generator=()
 if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
@@ -15,12 +22,19 @@ if [ ! -f build-fuzz/CMakeCache.txt ]; then
     -DTETLOD_WITH_OPENVDB=OFF -DTETLOD_WITH_HDF5=OFF -DTETLOD_WITH_OPENMESH=OFF \
     -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" >/dev/null
 fi
-cmake --build build-fuzz --target fuzz_tlod_reader --parallel "$(nproc)"
-corpus=$(mktemp -d)
-trap 'rm -rf "$corpus"' EXIT
-cp fuzz/corpus/reader/* "$corpus"/
-echo "fuzz: running fuzz_tlod_reader for ${seconds}s"
-ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ./build-fuzz/fuzz/fuzz_tlod_reader -max_total_time="$seconds" -rss_limit_mb=2048 \
-  -print_final_stats=1 "$corpus" 2>&1 | tail -n 25
-echo "fuzz: no crash in ${seconds}s"
+cmake --build build-fuzz --parallel "${FUZZ_BUILD_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+for t in "${targets[@]}"; do
+  c="${corpus_of[$t]}"
+  mkdir -p "$work/$t"
+  cp fuzz/corpus/"$c"/* "$work/$t"/
+  echo "fuzz: running fuzz_$t for ${seconds}s"
+  # -timeout: an input taking over 10 s is reported as a hang (a failure).
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    ./build-fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
+    -print_final_stats=1 "$work/$t" >"$work/$t.log" 2>&1 || { tail -n 60 "$work/$t.log"; echo "fuzz: fuzz_$t FAILED"; exit 1; }
+  grep -E "^(#[0-9]+.*DONE|stat::number_of_executed_units|stat::peak_rss_mb|Done [0-9]+ runs)" "$work/$t.log" || true
+  grep -E "cov: [0-9]+" "$work/$t.log" | tail -n 1
+  echo "fuzz: no crash in fuzz_$t (${seconds}s)"
+done

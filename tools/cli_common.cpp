@@ -146,6 +146,7 @@ VolumeReadOptions VolumeFlags::options() const {
     if (!origin.empty()) o.origin = parse_vec3(origin, "--origin");
     o.grid = grid;
     o.axis_order = axis_order;
+    o.allow_external_data = allow_external_data;
     return o;
 }
 
@@ -182,6 +183,9 @@ void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
                    "HDF5: zyx (C order [z][y][x], default) or xyz (x slowest)")
         ->group(group)
         ->check(CLI::IsMember({"zyx", "xyz"}));
+    sub.add_flag("--allow-external-data", f.allow_external_data,
+                 "NRRD/MetaImage: read data files the header names outside its folder (absolute paths, ..)")
+        ->group(group);
 }
 
 Volume load_volume(const std::string& path, const VolumeReadOptions& options) {

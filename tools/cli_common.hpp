@@ -34,6 +34,7 @@ void detail(const std::string& message);
 struct VolumeFlags {
     std::string dims, dtype, endian = "little", spacing, origin, grid, axis_order;
     uint64_t header_bytes = 0;
+    bool allow_external_data = false;
     VolumeReadOptions options() const;
 };
 /// Adds --dims --dtype --endian --header-bytes --spacing --origin (raw) and

@@ -3,6 +3,7 @@
 #include <zstd.h>
 
 #include <cstdio>
+#include <memory>
 
 #include "tetlod/format/container.hpp"
 
@@ -63,18 +64,40 @@ Expected<std::vector<std::byte>> zstd_decompress(std::span<const std::byte> stor
         return fail(ErrorCode::CorruptData, "zstd frame content size " + std::to_string(declared) +
                                                 " differs from the section's raw size " +
                                                 std::to_string(raw_size));
+    // A zstd block expands to at most 128 KiB and takes at least 4 bytes (RLE):
+    // a larger claim cannot be honest and is refused before allocating.
+    if (raw_size > uint64_t(stored.size()) * 32768 + 131072)
+        return fail(ErrorCode::CorruptData, "zstd frame of " + std::to_string(stored.size()) +
+                                                " bytes cannot expand to the claimed " + std::to_string(raw_size));
+    // Streamed into a buffer that grows with the output, so a frame whose blocks
+    // are garbage fails before its claimed size is allocated.
+    std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(), &ZSTD_freeDCtx);
+    if (!dctx) return fail(ErrorCode::TooLarge, "zstd: out of memory");
     std::vector<std::byte> out;
-    try {
-        out.resize(static_cast<std::size_t>(raw_size));
-    } catch (const std::bad_alloc&) {
-        return fail(ErrorCode::TooLarge, "cannot allocate " + std::to_string(raw_size) + " bytes");
+    ZSTD_inBuffer in{stored.data(), stored.size(), 0};
+    uint64_t done = 0;
+    constexpr uint64_t kStep = uint64_t{1} << 20;
+    for (;;) {
+        const uint64_t want = std::min<uint64_t>(raw_size, std::max<uint64_t>(done + kStep, 2 * done));
+        try {
+            if (want > out.size()) out.resize(static_cast<std::size_t>(want));
+        } catch (const std::bad_alloc&) {
+            return fail(ErrorCode::TooLarge, "cannot allocate " + std::to_string(want) + " bytes");
+        }
+        ZSTD_outBuffer ob{out.data(), out.size(), static_cast<std::size_t>(done)};
+        const std::size_t in_before = in.pos;
+        const std::size_t rc = ZSTD_decompressStream(dctx.get(), &ob, &in);
+        if (ZSTD_isError(rc))
+            return fail(ErrorCode::CorruptData, std::string("zstd decompression failed: ") + ZSTD_getErrorName(rc));
+        const bool progress = ob.pos != done || in.pos != in_before;
+        done = ob.pos;
+        if (rc == 0) break;  // frame complete
+        if (!progress && (in.pos == in.size || done == raw_size))
+            return fail(ErrorCode::CorruptData, "zstd frame ends early or expands past its content size");
     }
-    std::size_t n = ZSTD_decompress(out.data(), out.size(), stored.data(), stored.size());
-    if (ZSTD_isError(n))
-        return fail(ErrorCode::CorruptData,
-                    std::string("zstd decompression failed: ") + ZSTD_getErrorName(n));
-    if (n != raw_size)
+    if (done != raw_size || in.pos != in.size)
         return fail(ErrorCode::CorruptData, "zstd frame expanded to the wrong size");
+    out.resize(static_cast<std::size_t>(done));
     return out;
 }
 

@@ -54,6 +54,11 @@ std::vector<std::byte> serialize_metadata(const Metadata& m) {
     put_u32(out, static_cast<uint32_t>(m.user_keys.size()));
     put_list(out, m.format_keys);
     put_list(out, m.user_keys);
+    // Never write what parse_metadata would refuse (e.g. a NaN origin from an
+    // input file): the container would be unreadable by its own reader.
+    if (auto back = parse_metadata(out); !back)
+        throw Error(back.failure().code, "refusing to write metadata the reader would refuse: " +
+                                             back.failure().message);
     return out;
 }
 

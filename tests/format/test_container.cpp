@@ -243,9 +243,20 @@ TEST(Robustness, HostileHeaders) {
     {  // dims of 2^40 in METADATA, with valid checksums: refused before allocating
         Metadata m;
         m.dims = {int64_t{1} << 40, 2, 2};
+        // The writer refuses to write it (its reader would refuse it) ...
+        try {
+            (void)serialize_metadata(m);
+            ADD_FAILURE() << "serialize_metadata wrote dims of 2^40";
+        } catch (const Error& e) {
+            EXPECT_EQ(e.code(), ErrorCode::TooLarge) << e.what();
+        }
+        // ... so the hostile section is patched by hand (dims x is the first u64).
+        m.dims = {2, 2, 2};
+        auto raw = serialize_metadata(m);
+        store_le(raw.data(), uint64_t{1} << 40, 8);
         ContainerWriter w;
         w.set_features(kFeatureHt);
-        w.add(kSectionMetadata, kSectionCritical, 0, 0, serialize_metadata(m), 1);
+        w.add(kSectionMetadata, kSectionCritical, 0, 0, raw, 1);
         auto g = w.finish();
         auto r = ContainerReader::from_memory(g);
         ASSERT_TRUE(r.ok());

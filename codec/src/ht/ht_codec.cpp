@@ -662,6 +662,7 @@ bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<
     const ChunkFrame F(G, c.cycle, c.box);
     rc::Decoder dec(in.data(), in.size());
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
         const int64_t idx = G.index(x, y, z);
         const Prediction pr = predict_point(G, v, F, c.cycle, cls, x, y, z, idx);
         const int64_t s = lat.slot(x, y, z);
@@ -852,6 +853,7 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e,
     const uint32_t qmax = max_error_code(m);
     bool ok = true;
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
         const int far = touches_far_face(G, c.cycle, x, y, z);
         float& out = e[G.index(x, y, z)];
         if (dec.decode(models->inf[cls][far])) {

@@ -149,16 +149,32 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
     const uint64_t n = uint64_t(D.count());
     const ValueType vt = ValueType(type);
     if (nupd >= n || nbase == 0 || nbase > 5 * n) return fail(ErrorCode::CorruptData, "MT: bad counts");
+    // Every grid point is a base vertex (at most 4 per base tet) or removed by an
+    // update: dims claiming more points than that are refused before the
+    // per-point tables are allocated.
+    if (n > nupd + 4 * nbase)
+        return fail(ErrorCode::CorruptData, "MT: " + std::to_string(n) + " grid points but only " +
+                                                std::to_string(nbase) + " base tets and " + std::to_string(nupd) +
+                                                " updates");
     if (stored != bytes.size() - kHeaderSize)
         return fail(stored > bytes.size() - kHeaderSize ? ErrorCode::Truncated : ErrorCode::CorruptData,
                     "MT: payload size mismatch");
-    // Generous bound on the raw payload: base + ~40 bytes per update + field.
+    // The raw payload holds at least 16 bytes per base tet, 9 per update (3
+    // offset varints, a label, a 2-byte error code, a star size, a mask cut and
+    // exception count) and the field; at most a generous 64 per update.
     const uint64_t field_bytes = (flags & 1) ? n * value_size(vt) : 0;
+    const uint64_t min_raw = 8 * kStreams + 16 * nbase + 9 * nupd + field_bytes;
     const uint64_t max_raw = 8 * kStreams + 16 * nbase + 64 * nupd + field_bytes + (uint64_t(1) << 16);
     if (raw_size > max_raw) return fail(ErrorCode::TooLarge, "MT: payload larger than its counts allow");
+    if (raw_size < min_raw)
+        return fail(ErrorCode::CorruptData, "MT: a payload of " + std::to_string(raw_size) +
+                                                " bytes cannot hold the header's counts (at least " +
+                                                std::to_string(min_raw) + " bytes)");
+    // zstd_decompress refuses a raw size the stored bytes cannot expand to and
+    // grows its output with the data, so the counts are now backed by bytes.
     auto raw_r = tlod::zstd_decompress(
         std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + kHeaderSize), stored), raw_size);
-    if (!raw_r) return raw_r.failure();
+    if (!raw_r) return fail(raw_r.failure().code, "MT: payload: " + raw_r.failure().message);
     const std::vector<std::byte>& raw = raw_r.value();
     Reader r{reinterpret_cast<const uint8_t*>(raw.data()), reinterpret_cast<const uint8_t*>(raw.data()) + raw.size()};
     Reader st[kStreams];

@@ -223,12 +223,20 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
     Vec3 spacing{1.0, 1.0, 1.0}, origin{0.0, 0.0, 0.0};
     if (auto* s = field(h, {"elementspacing", "elementsize"})) {
         auto v = numbers(*s, n, what + " ElementSpacing");
-        for (std::size_t a = 0; a < n; ++a)
-            if (std::isfinite(v[a]) && v[a] != 0) spacing[a] = std::fabs(v[a]);
+        for (std::size_t a = 0; a < n; ++a) {
+            // A container cannot hold a non-finite geometry: refuse it here.
+            if (!std::isfinite(v[a]))
+                throw Error(ErrorCode::CorruptData, what + ": ElementSpacing '" + *s + "' is not finite");
+            if (v[a] != 0) spacing[a] = std::fabs(v[a]);
+        }
     }
     if (auto* s = field(h, {"offset", "position", "origin"})) {
         auto v = numbers(*s, n, what + " Offset");
-        for (std::size_t a = 0; a < n; ++a) origin[a] = v[a];
+        for (std::size_t a = 0; a < n; ++a) {
+            if (!std::isfinite(v[a]))
+                throw Error(ErrorCode::CorruptData, what + ": Offset '" + *s + "' is not finite");
+            origin[a] = v[a];
+        }
     }
     if (auto* s = field(h, {"transformmatrix", "rotation", "orientation"})) {
         auto v = numbers(*s, n * n, what + " TransformMatrix");
@@ -256,23 +264,22 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
         pieces.push_back({path, h.data_offset, 0, header_size});
     } else if (!tok.empty() && to_lower(tok[0]) == "list") {
         if (tok.size() > 1) subdim = parse_int(tok[1], what + " ElementDataFile subdim");
-        names = h.list_files;
+        for (const auto& nm : h.list_files)
+            names.push_back(resolve_data_file(path, nm, options.allow_external_data, what));
         if (names.empty()) throw Error(ErrorCode::CorruptData, what + ": ElementDataFile = LIST names no files");
     } else if (tok.size() >= 4 && tok[0].find('%') != std::string::npos) {
         int64_t lo = parse_int(tok[1], what + " ElementDataFile min");
         int64_t hi = parse_int(tok[2], what + " ElementDataFile max");
         int64_t step = parse_int(tok[3], what + " ElementDataFile step");
         if (tok.size() > 4) subdim = parse_int(tok[4], what + " ElementDataFile subdim");
-        if (step == 0 || (hi - lo) / step < 0)
-            throw Error(ErrorCode::CorruptData, what + ": ElementDataFile range is empty or endless");
-        int64_t count = (hi - lo) / step + 1;
-        if (count > kMaxDataFiles || count > dims.count())
-            throw Error(ErrorCode::TooLarge,
-                        what + ": ElementDataFile pattern names " + std::to_string(count) + " files");
-        for (int64_t i = 0; i < count; ++i) names.push_back(format_file_pattern(tok[0], lo + i * step, what));
+        const int64_t count =
+            pattern_file_count(lo, hi, step, std::min(kMaxDataFiles, dims.count()), what, "ElementDataFile");
+        for (int64_t i = 0; i < count; ++i)
+            names.push_back(resolve_data_file(path, format_file_pattern(tok[0], lo + i * step, what),
+                                              options.allow_external_data, what));
     } else {
         if (df.empty()) throw Error(ErrorCode::CorruptData, what + ": empty ElementDataFile");
-        names.push_back(df);
+        names.push_back(resolve_data_file(path, df, options.allow_external_data, what));
     }
     if (subdim != -1) {
         if (subdim < 1 || subdim > nd)
@@ -285,14 +292,12 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
     }
     for (const auto& nm : names)
         // MetaIO applies HeaderSize to each data file.
-        pieces.push_back({resolve_beside(path, nm), 0, 0, header_size});
+        pieces.push_back({nm, 0, 0, header_size});
 
-    const uint64_t total = static_cast<uint64_t>(dims.count()) * value_size(*type);
-    check_piece_sizes(pieces, compression, total, what);  // before allocating
-    Volume vol = Volume::allocate(dims, *type);
-    read_samples(vol, pieces, compression, endian, what);
+    Volume vol = read_samples(dims, *type, pieces, compression, endian, what);
     vol.spacing = options.spacing.value_or(spacing);
     vol.origin = options.origin.value_or(origin);
+    check_geometry(vol.spacing, vol.origin, what);
     if (auto* nm = field(h, {"name"}); nm && !nm->empty()) vol.field_name = unescape(*nm);
     if (auto* u = field(h, {"units"})) vol.units = unescape(*u);
     for (const auto& f : h.fields)

@@ -219,7 +219,7 @@ const std::set<std::string>& handled_fields() {
 }
 
 std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, const Dims& dims, int dimension,
-                                   uint64_t value_bytes) {
+                                   bool allow_external) {
     const std::string what = "'" + path + "'";
     int64_t line_skip = 0, byte_skip = 0;
     if (auto* v = field(h, {"line skip", "lineskip"})) line_skip = parse_int(*v, what + " line skip");
@@ -240,22 +240,20 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
     std::vector<std::string> names;
     if (!tok.empty() && tok[0] == "LIST") {
         if (tok.size() > 1) subdim = parse_int(tok[1], what + " data file subdim");
-        names = h.list_files;
+        for (const auto& n : h.list_files) names.push_back(resolve_data_file(path, n, allow_external, what));
         if (names.empty()) throw Error(ErrorCode::CorruptData, what + ": \"data file: LIST\" names no files");
     } else if (tok.size() >= 4 && tok[0].find('%') != std::string::npos) {
         int64_t lo = parse_int(tok[1], what + " data file min");
         int64_t hi = parse_int(tok[2], what + " data file max");
         int64_t step = parse_int(tok[3], what + " data file step");
         if (tok.size() > 4) subdim = parse_int(tok[4], what + " data file subdim");
-        if (step == 0 || (hi - lo) / step < 0)
-            throw Error(ErrorCode::CorruptData, what + ": data file range " + tok[1] + " " + tok[2] + " " +
-                                                    tok[3] + " is empty or endless");
-        int64_t n = (hi - lo) / step + 1;
-        if (n > kMaxDataFiles || n > dims.count())
-            throw Error(ErrorCode::TooLarge, what + ": data file pattern names " + std::to_string(n) + " files");
-        for (int64_t i = 0; i < n; ++i) names.push_back(format_file_pattern(tok[0], lo + i * step, what));
+        const int64_t n =
+            pattern_file_count(lo, hi, step, std::min(kMaxDataFiles, dims.count()), what, "\"data file\"");
+        for (int64_t i = 0; i < n; ++i)
+            names.push_back(resolve_data_file(path, format_file_pattern(tok[0], lo + i * step, what),
+                                              allow_external, what));
     } else {
-        names.push_back(*df);
+        names.push_back(resolve_data_file(path, *df, allow_external, what));
     }
     if (subdim != -1) {
         if (subdim < 1 || subdim > dimension)
@@ -268,8 +266,7 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
                         what + ": " + std::to_string(names.size()) + " data files of " + std::to_string(subdim) +
                             "-D slabs do not hold the " + std::to_string(dims.count()) + " declared samples");
     }
-    (void)value_bytes;
-    for (const auto& n : names) pieces.push_back({resolve_beside(path, n), 0, line_skip, byte_skip});
+    for (const auto& n : names) pieces.push_back({n, 0, line_skip, byte_skip});
     return pieces;
 }
 
@@ -359,14 +356,11 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
             if (std::isfinite(v[c])) origin[c] = v[c];
     }
 
-    auto pieces = data_pieces(h, path, dims, static_cast<int>(dimension), value_size(*type));
-    const uint64_t total = static_cast<uint64_t>(dims.count()) * value_size(*type);
-    check_piece_sizes(pieces, compression, total, what);  // before allocating
-
-    Volume vol = Volume::allocate(dims, *type);
-    read_samples(vol, pieces, compression, endian, what);
+    auto pieces = data_pieces(h, path, dims, static_cast<int>(dimension), options.allow_external_data);
+    Volume vol = read_samples(dims, *type, pieces, compression, endian, what);
     vol.spacing = options.spacing.value_or(spacing);
     vol.origin = options.origin.value_or(origin);
+    check_geometry(vol.spacing, vol.origin, what);
     if (auto* c = field(h, {"content"}); c && !c->empty()) vol.field_name = *c;
     if (auto* u = field(h, {"sample units", "sampleunits"})) vol.units = *u;
     for (const auto& [k, v] : h.fields)

@@ -97,8 +97,19 @@ void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& 
     }
 }
 
-void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_t bytes,
-                   const std::string& what) {
+/// Grows `buf` so it holds at least `need` bytes, geometrically but never past
+/// `cap` (the size the header declares): memory follows the data produced.
+void grow_to(std::vector<std::byte>& buf, uint64_t need, uint64_t cap) {
+    if (need <= buf.size()) return;
+    if (need > buf.capacity())
+        buf.reserve(static_cast<std::size_t>(std::min<uint64_t>(cap, std::max<uint64_t>(need, 2 * buf.capacity()))));
+    buf.resize(static_cast<std::size_t>(need));
+}
+
+/// Inflates `bytes` samples of one piece and appends them to `out` (whose final
+/// size is `cap`), growing it only as the stream yields data.
+void inflate_piece(std::FILE* f, const DataPiece& piece, std::vector<std::byte>& out, uint64_t bytes,
+                   uint64_t cap, const std::string& what) {
     z_stream zs{};
     if (inflateInit2(&zs, 15 + 32) != Z_OK)
         throw Error(ErrorCode::IoError, what + ": cannot initialise zlib");
@@ -109,6 +120,7 @@ void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_
     std::vector<unsigned char> in(kZChunk);
     std::vector<unsigned char> skip(std::min<uint64_t>(kZChunk, std::max<int64_t>(piece.byte_skip, 4096)));
     uint64_t to_skip = piece.byte_skip > 0 ? static_cast<uint64_t>(piece.byte_skip) : 0;
+    const uint64_t base = out.size();
     uint64_t done = 0;
     bool stream_end = false;
     auto corrupt = [&](const char* msg) {
@@ -130,12 +142,14 @@ void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_
             if (inflateReset(&zs) != Z_OK) throw corrupt(zs.msg);
             stream_end = false;
         }
+        const uint64_t want = std::min<uint64_t>(kZChunk, bytes - done);
         if (to_skip > 0) {
             zs.next_out = skip.data();
             zs.avail_out = static_cast<uInt>(std::min<uint64_t>(skip.size(), to_skip));
         } else {
-            zs.next_out = reinterpret_cast<Bytef*>(out + done);
-            zs.avail_out = static_cast<uInt>(std::min<uint64_t>(kIoChunk, bytes - done));
+            grow_to(out, base + done + want, cap);
+            zs.next_out = reinterpret_cast<Bytef*>(out.data() + base + done);
+            zs.avail_out = static_cast<uInt>(want);
         }
         uInt before = zs.avail_out;
         int rc = inflate(&zs, Z_NO_FLUSH);
@@ -147,6 +161,7 @@ void inflate_piece(std::FILE* f, const DataPiece& piece, std::byte* out, uint64_
         uint64_t produced = before - zs.avail_out;
         if (to_skip > 0) to_skip -= produced;
         else done += produced;
+        if (!(to_skip > 0)) out.resize(static_cast<std::size_t>(base + done));
     }
     // All samples are in; run the stream to its end so the trailer's checksum
     // (CRC-32 for gzip, Adler-32 for zlib) is verified and a cut-off file is
@@ -198,28 +213,34 @@ void check_piece_sizes(const std::vector<DataPiece>& pieces, Compression compres
     }
 }
 
-void read_samples(Volume& volume, const std::vector<DataPiece>& pieces, Compression compression,
-                  Endian file_endian, const std::string& what) {
-    const uint64_t total = volume.data.size();
-    check_piece_sizes(pieces, compression, total, what);
+Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiece>& pieces,
+                    Compression compression, Endian file_endian, const std::string& what) {
+    validate_dims(dims, what);
+    const uint64_t total = static_cast<uint64_t>(dims.count()) * value_size(type);
+    check_piece_sizes(pieces, compression, total, what);  // before allocating anything
     const uint64_t per = total / pieces.size();
-    std::byte* out = volume.data.data();
-    for (const auto& piece : pieces) {
+    Volume vol;
+    vol.dims = dims;
+    vol.type = type;
+    // Raw data: every file holds its bytes (just checked), so the claim is backed.
+    if (compression == Compression::None) vol.data.resize(static_cast<std::size_t>(total));
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
+        const DataPiece& piece = pieces[i];
         uint64_t size = file_size_of(piece.path, what);
         FilePtr f = open_read(piece.path, what);
         seek_to(f.get(), piece.file_offset, piece.path);
         uint64_t pos = skip_lines(f.get(), piece.line_skip, piece.file_offset, piece.path, what);
         if (compression == Compression::None) {
-            read_raw_piece(f.get(), pos, size, piece, out, per, what);
+            read_raw_piece(f.get(), pos, size, piece, vol.data.data() + i * per, per, what);
         } else {
             if (piece.byte_skip < 0)
                 throw Error(ErrorCode::UnsupportedFeature,
                             what + ": \"byte skip: -1\" is only allowed with raw encoding");
-            inflate_piece(f.get(), piece, out, per, what);
+            inflate_piece(f.get(), piece, vol.data, per, total, what);
         }
-        out += per;
     }
-    if (file_endian != host_endian()) swap_bytes(volume.data.data(), volume.data.size(), value_size(volume.type));
+    if (file_endian != host_endian()) swap_bytes(vol.data.data(), vol.data.size(), value_size(type));
+    return vol;
 }
 
 uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Compression compression,
@@ -338,6 +359,65 @@ std::string resolve_beside(const std::string& header_path, const std::string& na
     std::filesystem::path n(name);
     if (n.is_absolute()) return name;
     return (std::filesystem::path(header_path).parent_path() / n).string();
+}
+
+std::string resolve_data_file(const std::string& header_path, const std::string& name, bool allow_external,
+                              const std::string& what) {
+    namespace fs = std::filesystem;
+    const std::string resolved = resolve_beside(header_path, name);
+    // Checked as each name is resolved, so a pattern naming a million missing
+    // files fails at the first instead of listing them all; FIFOs and devices
+    // would block or never end.
+    auto require_regular = [&] {
+        std::error_code sec;
+        const auto st = fs::status(resolved, sec);
+        if (sec || !fs::exists(st))
+            throw Error(ErrorCode::IoError, what + ": cannot open data file '" + resolved + "': " +
+                                                (sec ? sec.message() : std::string("no such file")));
+        if (!fs::is_regular_file(st))
+            throw Error(ErrorCode::IoError, what + ": data file '" + resolved + "' is not a regular file");
+        return resolved;
+    };
+    if (allow_external) return require_regular();
+    std::error_code ec;
+    fs::path parent = fs::path(header_path).parent_path();
+    if (parent.empty()) parent = ".";
+    const fs::path dir = fs::absolute(parent, ec).lexically_normal();
+    const fs::path file = fs::absolute(fs::path(resolved), ec).lexically_normal();
+    const fs::path rel = file.lexically_relative(dir);
+    const bool inside = !ec && !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+    if (!inside)
+        throw Error(ErrorCode::UnsupportedFeature,
+                    what + ": the header names the data file '" + name + "', which is outside the header's folder; "
+                           "pass --allow-external-data to read it");
+    return require_regular();
+}
+
+int64_t pattern_file_count(int64_t lo, int64_t hi, int64_t step, int64_t max_files, const std::string& what,
+                           const std::string& field) {
+    // In 128 bits: hi - lo and the division cannot overflow (INT64_MIN / -1 traps).
+    const __int128 span = static_cast<__int128>(hi) - lo;
+    if (step == 0 || (span != 0 && ((span < 0) != (step < 0))))
+        throw Error(ErrorCode::CorruptData, what + ": " + field + " range " + std::to_string(lo) + " " +
+                                                std::to_string(hi) + " " + std::to_string(step) +
+                                                " is empty or endless");
+    const __int128 n = span / step + 1;
+    if (n > max_files)
+        throw Error(ErrorCode::TooLarge, what + ": " + field + " pattern names more than " +
+                                             std::to_string(max_files) + " files (" + std::to_string(lo) + " to " +
+                                             std::to_string(hi) + " step " + std::to_string(step) + ")");
+    return static_cast<int64_t>(n);
+}
+
+void check_geometry(const Vec3& spacing, const Vec3& origin, const std::string& what) {
+    for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(spacing[a]) || !(spacing[a] > 0))
+            throw Error(ErrorCode::CorruptData, what + ": spacing " + format_double(spacing[a]) + " on axis " +
+                                                    std::to_string(a) + " is not a finite positive number");
+        if (!std::isfinite(origin[a]))
+            throw Error(ErrorCode::CorruptData, what + ": origin " + format_double(origin[a]) + " on axis " +
+                                                    std::to_string(a) + " is not a finite number");
+    }
 }
 
 std::string format_file_pattern(const std::string& pattern, int64_t n, const std::string& what) {

@@ -34,13 +34,17 @@ struct DataPiece {
 /// compressed file can hold before allocating for it.
 inline constexpr uint64_t kMaxDeflateRatio = 1032;
 
-/// Fills `volume.data` (already allocated for dims x type) from the pieces, which
-/// share the samples equally in order. Checks each file's size before reading;
-/// swaps bytes when `file_endian` is not the host order. `what` names the
-/// header file in errors. Throws tetlod::Error (IoError, Truncated, SizeMismatch,
+/// Reads the samples of a dims x type volume from the pieces, which share them
+/// equally in order, and returns the volume (geometry left at its defaults).
+/// Never allocates what the header merely claims: each file's size is checked
+/// first (raw data: exactly; compressed: the deflate bound), and compressed
+/// samples go into a buffer that grows only as the stream produces them, so a
+/// garbage or short stream fails before its claimed size is allocated. Swaps
+/// bytes when `file_endian` is not the host order. `what` names the header
+/// file in errors. Throws tetlod::Error (IoError, Truncated, SizeMismatch,
 /// CorruptData).
-void read_samples(Volume& volume, const std::vector<DataPiece>& pieces, Compression compression,
-                  Endian file_endian, const std::string& what);
+Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiece>& pieces,
+                    Compression compression, Endian file_endian, const std::string& what);
 
 /// Throws Truncated/SizeMismatch when the pieces cannot hold `total_bytes` of
 /// samples (raw: exact sizes; compressed: the deflate bound). Call before
@@ -66,6 +70,20 @@ std::string format_double(double v);
 /// Directory part of a path ("" for none) joined with a relative file name;
 /// absolute names are returned unchanged.
 std::string resolve_beside(const std::string& header_path, const std::string& name);
+/// The data file a header names, resolved beside the header. A name that leaves
+/// the header's folder (an absolute path elsewhere, or ".." components) is
+/// refused with UnsupportedFeature unless `allow_external` (the user's
+/// --allow-external-data): a header must not make tetlod read arbitrary files.
+std::string resolve_data_file(const std::string& header_path, const std::string& name, bool allow_external,
+                              const std::string& what);
+/// Number of files of a "FORMAT MIN MAX STEP" data file pattern, computed
+/// without overflow; refuses an empty or endless range (CorruptData) and more
+/// than `max_files` files (TooLarge). `field` names the header field.
+int64_t pattern_file_count(int64_t lo, int64_t hi, int64_t step, int64_t max_files, const std::string& what,
+                           const std::string& field);
+/// Refuses non-finite or non-positive spacing and non-finite origin
+/// (CorruptData naming `what` and `field`): the container could not store them.
+void check_geometry(const Vec3& spacing, const Vec3& origin, const std::string& what);
 /// printf-style "%d" pattern with one integer conversion (flags/width allowed).
 std::string format_file_pattern(const std::string& pattern, int64_t n, const std::string& what);
 

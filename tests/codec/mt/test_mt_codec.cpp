@@ -87,8 +87,23 @@ TEST(MtCodec, EveryPrefixFailsCleanly) {
     EXPECT_EQ(decode_mt(bytes, nullptr).failure().code, ErrorCode::NotFound);
 }
 
+/// What a refusal may say: a decoder failure of untrusted bytes, never an I/O or usage code.
+bool is_refusal_code(ErrorCode c) {
+    return c == ErrorCode::Truncated || c == ErrorCode::BadMagic || c == ErrorCode::UnsupportedVersion ||
+           c == ErrorCode::CorruptData || c == ErrorCode::TooLarge;
+}
+
+/// Structural checks of an accepted model's mesh (no error bound: corrupted
+/// error codes are data the decoder cannot tell from real ones).
+CheckOptions structure_only() {
+    CheckOptions o;
+    o.allowed = nullptr;
+    return o;
+}
+
 /// Flips bytes of the decompressed payload, re-frames it, and decodes: the decoder
-/// must fail cleanly or give a model whose extraction fails cleanly or succeeds.
+/// must refuse with a decoder error code, or give a model whose extractions either
+/// fail with CorruptData or are valid, conforming meshes covering the box.
 TEST(MtCodec, HostileStreamsNeverCrash) {
     const Built b = build({6, 5, 7}, ValueType::U8, Field::Noisy);
     const auto bytes = encode_mt(b.model);
@@ -99,7 +114,7 @@ TEST(MtCodec, HostileStreamsNeverCrash) {
         std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + 48), stored), raw_size);
     ASSERT_TRUE(raw.ok());
     std::mt19937 rng(5);
-    int decoded = 0, extracted = 0;
+    int decoded = 0, refused = 0, extracted = 0, extraction_refused = 0;
     for (int iter = 0; iter < 400; ++iter) {
         std::vector<std::byte> mut = raw.value();
         const int flips = 1 + int(rng() % 3);
@@ -112,7 +127,12 @@ TEST(MtCodec, HostileStreamsNeverCrash) {
         const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
         file.insert(file.end(), zb, zb + z.size());
         auto r = decode_mt(file, &b.vol);
-        if (!r.ok()) continue;
+        if (!r.ok()) {
+            ++refused;
+            EXPECT_TRUE(is_refusal_code(r.failure().code)) << r.failure().message;
+            EXPECT_EQ(r.failure().message.rfind("MT", 0), 0u) << r.failure().message;
+            continue;
+        }
         ++decoded;
         for (double e : {-1.0, 0.0, 10.0}) {
             LodQuery q;
@@ -120,32 +140,59 @@ TEST(MtCodec, HostileStreamsNeverCrash) {
             try {
                 const TetMesh m = r.value().extract(q);
                 ++extracted;
-                (void)m;
+                EXPECT_TRUE(mesh_ok(b.vol, m, structure_only())) << "iteration " << iter << " error " << e;
             } catch (const Error& err) {
+                ++extraction_refused;
                 EXPECT_EQ(err.code(), ErrorCode::CorruptData) << err.what();
             }
         }
     }
-    std::printf("[ mt ] hostile streams: %d of 400 decoded, %d extractions completed\n", decoded, extracted);
+    std::printf("[ mt ] hostile streams: %d refused, %d decoded; %d extractions valid, %d refused\n", refused,
+                decoded, extracted, extraction_refused);
+    // Both outcomes must occur, or the test checks nothing.
+    EXPECT_GE(refused, 100);
+    EXPECT_GE(extracted, 10);
 }
 
+/// Every single-bit flip of the 48-byte header: only the error mantissa bits
+/// (byte 21, values 0..7) are free, and only when every stored code stays in
+/// range; every other flip must be refused with a decoder error code. An
+/// accepted model must give valid meshes, and exact ones at error 0 (code 0
+/// means 0 at every precision).
 TEST(MtCodec, HostileHeadersNeverCrash) {
     const Built b = build({4, 4, 4}, ValueType::U8, Field::Smooth);
-    const auto bytes = encode_mt(b.model);
+    MtEncodeOptions o;
+    o.error_mantissa_bits = 4;  // flips to 5 and 6 keep every code in range, so some are accepted
+    const auto bytes = encode_mt(b.model, o);
+    ASSERT_EQ(bytes[21], 4);
+    int accepted = 0, refused = 0;
     for (size_t i = 0; i < 48; ++i)
         for (int bit = 0; bit < 8; ++bit) {
+            SCOPED_TRACE("byte " + std::to_string(i) + " bit " + std::to_string(bit));
             auto mut = bytes;
             mut[i] ^= uint8_t(1u << bit);
             auto r = decode_mt(mut, &b.vol);
-            if (r.ok()) {
-                LodQuery q;
-                q.full = true;
-                try {
-                    (void)r.value().extract(q);
-                } catch (const Error&) {
-                }
+            if (!r.ok()) {
+                ++refused;
+                EXPECT_TRUE(is_refusal_code(r.failure().code)) << r.failure().message;
+                EXPECT_EQ(r.failure().message.rfind("MT", 0), 0u) << r.failure().message;
+                continue;
             }
+            ++accepted;
+            EXPECT_TRUE(i == 21 && bit < 3) << "a corrupt header was accepted";
+            LodQuery full;
+            full.full = true;
+            const TetMesh fm = r.value().extract(full);
+            EXPECT_EQ(int64_t(fm.tet_count()), 5 * cells(b.vol.dims));
+            EXPECT_TRUE(mesh_ok(b.vol, fm, mt_check_options(full, b.vol)));
+            LodQuery exact;
+            exact.error_in = 0.0;
+            EXPECT_TRUE(mesh_ok(b.vol, r.value().extract(exact), mt_check_options(exact, b.vol)));
         }
+    std::printf("[ mt ] header bit flips: %d refused, %d accepted\n", refused, accepted);
+    EXPECT_GE(accepted, 2);  // mantissa bits 4 -> 5 and 4 -> 6
+    EXPECT_EQ(accepted + refused, 48 * 8);
+    EXPECT_GE(refused, 48 * 8 - 3);
 }
 
 }  // namespace

@@ -43,6 +43,9 @@ struct Metadata {
 inline constexpr std::size_t kMaxMetadataEntries = 65536;
 inline constexpr std::size_t kMaxKeyBytes = 65535;
 
+/// Throws tetlod::Error when the result would not parse back (the writer never
+/// produces a METADATA section parse_metadata refuses: dims, type, non-finite or
+/// non-positive spacing, non-finite origin, min > max, key rules).
 std::vector<std::byte> serialize_metadata(const Metadata& m);
 /// Parses and validates a decompressed METADATA section: dims within the core
 /// limits (before anything is allocated from them), a known value type, reserved

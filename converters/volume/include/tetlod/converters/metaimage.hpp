@@ -15,7 +15,9 @@
 //  - BinaryDataByteOrderMSB / ElementByteOrderMSB, HeaderSize (-1 = the data are
 //    the last bytes of the file), CompressedData (zlib), CompressedDataSize.
 //  - ElementDataFile: LOCAL, a file name (relative to the header), LIST [subdim]
-//    (names on the following lines) or "FORMAT MIN MAX STEP [SUBDIM]".
+//    (names on the following lines) or "FORMAT MIN MAX STEP [SUBDIM]"; data files
+//    must lie in the header's folder unless VolumeReadOptions::allow_external_data.
+//  - Offset and ElementSpacing must be finite (a container cannot store others).
 //  - Name becomes Volume::field_name, "units" Volume::units; every other field
 //    not listed above is kept in Volume::metadata under its own key (values with
 //    "\n" and "\\" unescaped, the escaping tetlod's writer applies).

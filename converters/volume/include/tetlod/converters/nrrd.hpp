@@ -15,6 +15,8 @@
 //    "space origin" becomes Volume::origin.
 //  - "data file": a single name, LIST (names on the following lines) or a
 //    "FORMAT MIN MAX STEP [SUBDIM]" pattern; the files share the samples equally.
+//    Data files must lie in the header's folder unless
+//    VolumeReadOptions::allow_external_data (refused: UnsupportedFeature).
 //  - "key:=value" pairs go to Volume::metadata unchanged (\n and \\ unescaped);
 //    "content" becomes Volume::field_name, "sample units" Volume::units, other
 //    informative fields (space, kinds, labels, units, ...) metadata "nrrd:<field>".

@@ -26,6 +26,10 @@ struct VolumeReadOptions {
     std::string grid;
     // HDF5: "zyx" (C order [z][y][x], default) or "xyz"
     std::string axis_order;
+    // NRRD/MetaImage: read data files the header names outside its own folder
+    // (absolute paths elsewhere, ".."). Off by default: a header downloaded with
+    // a dataset must not make tetlod read arbitrary files such as /etc/shadow.
+    bool allow_external_data = false;
 };
 
 }  // namespace tetlod

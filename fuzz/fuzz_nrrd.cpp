@@ -1,0 +1,12 @@
+// libFuzzer target: the NRRD reader, header and data (attached or detached).
+#include <cstddef>
+#include <cstdint>
+
+#include "fuzz_volume_header.hpp"
+#include "tetlod/converters/nrrd.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    tetlod_fuzz::read_header_and_data(data, size, "h.nrrd",
+                                      [](const std::string& p) { return tetlod::read_nrrd(p); });
+    return 0;
+}

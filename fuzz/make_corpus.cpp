@@ -1,0 +1,151 @@
+// Writes the seed corpora of the fuzz targets (fuzz/corpus/<target>/), small
+// valid inputs in each target's input format. Run after a format change:
+//   build/fuzz/fuzz_make_corpus fuzz/corpus
+// The container reader's seeds (corpus/reader) are the spec's test vectors.
+#include <zlib.h>
+
+#include <cstdio>
+#include <cstring>
+#include <span>
+#include <tuple>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codec/mt/mt_codec.hpp"
+#include "tetlod/codec/mt/mt_model.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/format/metadata.hpp"
+
+using namespace tetlod;
+namespace fs = std::filesystem;
+
+namespace {
+
+void put(const fs::path& p, const void* d, std::size_t n) {
+    std::ofstream f(p, std::ios::binary);
+    f.write(static_cast<const char*>(d), static_cast<std::streamsize>(n));
+}
+void put(const fs::path& p, const std::string& s) { put(p, s.data(), s.size()); }
+
+Volume sample(Dims d, ValueType t, unsigned seed) {
+    Volume v = Volume::allocate(d, t);
+    for (int64_t i = 0; i < d.count(); ++i) {
+        const int64_t x = i % d.x, y = (i / d.x) % d.y, z = i / (d.x * d.y);
+        v.set_value(i, double((x * 7 + y * 3 + z * 5 + int64_t(seed) * (i % 3)) % 50));
+    }
+    v.field_name = "density";
+    v.metadata["k"] = "v";
+    return v;
+}
+
+/// The HT sections of a container, as the ht_sections target reads them.
+std::string ht_parts(const Volume& v, int brick_log2, bool pad) {
+    HtBuildOptions bo;
+    bo.pad = pad;
+    HtModel m = HtModel::build(v, bo);
+    tlod::ContainerWriter w;
+    HtEncodeOptions eo;
+    eo.brick_log2 = brick_log2;
+    encode_ht(m, tlod::metadata_for_volume(v), w, eo);
+    const auto file = w.finish();
+    auto r = tlod::ContainerReader::from_memory(file);
+    std::string out;
+    for (std::size_t i = 0; i < r->sections().size(); ++i) {
+        auto s = r->read_section(i);
+        if (i) out += "@SEC";
+        out.append(reinterpret_cast<const char*>(s->data()), s->size());
+    }
+    return out;
+}
+
+std::string gzip(const std::string& raw) {
+    z_stream zs{};
+    deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
+    std::string out(deflateBound(&zs, raw.size()) + 32, '\0');
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(raw.data()));
+    zs.avail_in = uInt(raw.size());
+    zs.next_out = reinterpret_cast<Bytef*>(out.data());
+    zs.avail_out = uInt(out.size());
+    deflate(&zs, Z_FINISH);
+    out.resize(zs.total_out);
+    deflateEnd(&zs);
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: fuzz_make_corpus CORPUS_DIR\n");
+        return 2;
+    }
+    const fs::path root = argv[1];
+    for (const char* d : {"ht_sections", "mt", "metadata", "nrrd", "metaimage"}) fs::create_directories(root / d);
+    // HT sections.
+    put(root / "ht_sections/u8_5x4x3_b1", ht_parts(sample({5, 4, 3}, ValueType::U8, 1), 1, false));
+    put(root / "ht_sections/i16_9x9x9_b2", ht_parts(sample({9, 9, 9}, ValueType::I16, 2), 2, false));
+    put(root / "ht_sections/f32_6x5x4_padded", ht_parts(sample({6, 5, 4}, ValueType::F32, 3), 1, true));
+    // MT: stored bytes (mode 0) and header + raw payload (mode 1), with and without the field.
+    for (auto [name, d, t] : {std::tuple{"u8_5x4x3", Dims{5, 4, 3}, ValueType::U8},
+                              std::tuple{"f32_4x4x4", Dims{4, 4, 4}, ValueType::F32}}) {
+        const Volume v = sample(d, t, 4);
+        const MtModel m = MtModel::build(v);
+        for (bool with_field : {false, true}) {
+            MtEncodeOptions o;
+            o.include_field = with_field;
+            const auto b = encode_mt(m, o);
+            std::string stored = std::string(1, '\0') + std::string(b.begin(), b.end());
+            put(root / "mt" / (std::string(name) + (with_field ? "_field" : "") + "_stored"), stored);
+            uint64_t rs = 0, zs = 0;
+            std::memcpy(&rs, b.data() + 32, 8);
+            std::memcpy(&zs, b.data() + 40, 8);
+            auto raw = tlod::zstd_decompress(
+                std::span<const std::byte>(reinterpret_cast<const std::byte*>(b.data() + 48), zs), rs);
+            std::string mode1 = std::string(1, '\1') + std::string(b.begin(), b.begin() + 48) +
+                                std::string(reinterpret_cast<const char*>(raw->data()), raw->size());
+            put(root / "mt" / (std::string(name) + (with_field ? "_field" : "") + "_raw"), mode1);
+        }
+    }
+    // METADATA.
+    {
+        Volume v = sample({7, 3, 2}, ValueType::I16, 5);
+        v.units = "mm";
+        v.spacing = {0.5, 1, 2};
+        v.origin = {-1, 0, 3};
+        tlod::Metadata m = tlod::metadata_for_volume(v);
+        m.format_keys[tlod::kKeyConverter] = "fuzz_make_corpus";
+        const auto b = tlod::serialize_metadata(m);
+        put(root / "metadata/i16_7x3x2", b.data(), b.size());
+        tlod::Metadata one;
+        one.dims = {1, 1, 1};
+        const auto e = tlod::serialize_metadata(one);
+        put(root / "metadata/minimal", e.data(), e.size());
+    }
+    // NRRD and MetaImage: header, then "\n@@DATA@@\n" and the data file d.raw.
+    std::string raw64;
+    for (int i = 0; i < 64; ++i) raw64 += char(i * 3);
+    const std::string sep = "\n@@DATA@@\n";
+    const std::string nh = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\n";
+    put(root / "nrrd/attached_raw", nh + "encoding: raw\nspacings: 0.5 1 2\n\n" + raw64);
+    put(root / "nrrd/attached_gzip", nh + "encoding: gzip\nspace origin: (1,2,3)\n\n" + gzip(raw64));
+    put(root / "nrrd/detached_raw", nh + "encoding: raw\nendian: big\ndata file: d.raw\nbyte skip: 0\n" + sep + raw64);
+    put(root / "nrrd/detached_gzip", nh + "encoding: gzip\ndata file: d.raw\nk:=v\n" + sep + gzip(raw64));
+    put(root / "nrrd/pattern",
+        "NRRD0004\ntype: short\ndimension: 3\nsizes: 4 4 2\nencoding: raw\ndata file: d%d.raw 1 2 1 2\n" + sep +
+            sep + raw64.substr(0, 32) + sep + raw64.substr(32));
+    put(root / "nrrd/list", nh + "encoding: raw\nspace directions: (1,0,0) (0,2,0) (0,0,3)\ndata file: LIST 2\nd1.raw\nd2.raw\nd3.raw\nd4.raw\n" + sep +
+                                 sep + raw64.substr(0, 16) + sep + raw64.substr(16, 16) + sep +
+                                 raw64.substr(32, 16) + sep + raw64.substr(48));
+    const std::string mh = "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n";
+    put(root / "metaimage/local_raw", mh + "ElementSpacing = 1 2 3\nOffset = 1 2 3\nElementDataFile = LOCAL\n" + raw64);
+    put(root / "metaimage/local_zlib", mh + "CompressedData = True\nElementDataFile = LOCAL\n" + gzip(raw64));
+    put(root / "metaimage/detached", mh + "BinaryDataByteOrderMSB = True\nElementDataFile = d.raw\n" + sep + raw64);
+    put(root / "metaimage/pattern",
+        "NDims = 3\nDimSize = 4 4 2\nElementType = MET_SHORT\nElementDataFile = d%d.raw 1 2 1 2\n" + sep + sep +
+            raw64.substr(0, 32) + sep + raw64.substr(32));
+    std::printf("seed corpora written to %s\n", root.c_str());
+    return 0;
+}
