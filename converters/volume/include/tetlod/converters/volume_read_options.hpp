@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "tetlod/core/isolated_process.hpp"
 #include "tetlod/core/volume.hpp"
 
 namespace tetlod {
@@ -26,6 +27,9 @@ struct VolumeReadOptions {
     std::string grid;
     // HDF5: "zyx" (C order [z][y][x], default) or "xyz"
     std::string axis_order;
+    // OpenVDB and HDF5: the third-party library reads in a child process with a
+    // time limit, so a crash or hang inside it becomes a clean error (default on).
+    IsolationOptions isolation;
 };
 
 }  // namespace tetlod
