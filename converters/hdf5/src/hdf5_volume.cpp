@@ -291,6 +291,13 @@ Volume read_hdf5_here(const std::string& file, const std::string& dataset_in, co
             std::string prefix = dataset.substr(0, p);
             if (prefix == "/") continue;
             exists = H5Lexists(f.get(), prefix.c_str(), dapl.get()) > 0;
+            H5L_info_t link{};
+            if (exists && H5Lget_info(f.get(), prefix.c_str(), &link, dapl.get()) >= 0 && link.type != H5L_TYPE_HARD &&
+                link.type != H5L_TYPE_SOFT)
+                throw Error(ErrorCode::UnsupportedFeature,
+                            "'" + file + "': '" + prefix +
+                                "' is an external (or user-defined) link to another file; tetlod reads only data "
+                                "stored in the file itself");
         }
     }
     H5Eclear2(H5E_DEFAULT);
