@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/regular_file.hpp"
 #include "tetlod/format/byte_io.hpp"
 
 namespace tetlod::tlod {
@@ -89,6 +90,7 @@ bool plausible_raw_size(const SectionInfo& s) {
 }  // namespace
 
 Expected<ContainerReader> ContainerReader::open(const std::string& path) {
+    if (auto bad = regular_file_failure(path, "container")) return *bad;
     int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) return fail(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
     struct stat st {};

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "tetlod/core/regular_file.hpp"
 #include "tetlod/format/container.hpp"
 
 namespace tetlod::tlod {
@@ -16,6 +17,7 @@ uint64_t checksum64(std::span<const std::byte> bytes) {
 }
 
 Expected<uint64_t> checksum64_file(const std::string& path) {
+    if (auto bad = regular_file_failure(path, "container")) return *bad;
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) return fail(ErrorCode::IoError, "cannot open '" + path + "'");
     XXH64_state_t* st = XXH64_createState();

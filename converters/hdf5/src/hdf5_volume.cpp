@@ -16,7 +16,10 @@
 #include <map>
 #include <set>
 
+#include "hdf5_read_guard.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/isolated_volume.hpp"
+#include "tetlod/core/regular_file.hpp"
 
 namespace tetlod {
 
@@ -83,22 +86,25 @@ std::string normalize_dataset(const std::string& d) {
     return d[0] == '/' ? d : "/" + d;
 }
 
-std::vector<std::string> list_datasets(hid_t file) {
-    std::vector<std::string> out;
+std::vector<std::string> list_datasets(hid_t file, hid_t dapl) {
+    struct Visit {
+        std::vector<std::string> names;
+        hid_t dapl;
+    } visit{{}, dapl};
     H5Lvisit(
         file, H5_INDEX_NAME, H5_ITER_INC,
         [](hid_t g, const char* name, const H5L_info_t*, void* data) -> herr_t {
-            auto* v = static_cast<std::vector<std::string>*>(data);
-            hid_t d = H5Dopen2(g, name, H5P_DEFAULT);
+            auto* v = static_cast<Visit*>(data);
+            hid_t d = H5Dopen2(g, name, v->dapl);
             if (d >= 0) {
-                v->push_back(std::string("/") + name);
+                v->names.push_back(std::string("/") + name);
                 H5Dclose(d);
             }
-            return v->size() >= 20 ? 1 : 0;
+            return v->names.size() >= 20 ? 1 : 0;
         },
-        &out);
+        &visit);
     H5Eclear2(H5E_DEFAULT);
-    return out;
+    return visit.names;
 }
 
 struct Attr {
@@ -248,21 +254,24 @@ const std::set<std::string>& structural_attributes() {
 
 }  // namespace
 
-Volume read_hdf5(const std::string& file, const std::string& dataset_in, const VolumeReadOptions& options) {
+namespace {
+
+// The read itself, in whichever process read_hdf5 chose.
+Volume read_hdf5_here(const std::string& file, const std::string& dataset_in, const VolumeReadOptions& options,
+                      uint64_t file_size) {
     silence_hdf5();
     std::error_code ec;
-    if (!std::filesystem::exists(file, ec))
-        throw Error(ErrorCode::IoError, "cannot open '" + file + "': no such file");
     if (H5Fis_hdf5(file.c_str()) <= 0) {
         H5Eclear2(H5E_DEFAULT);
         throw Error(ErrorCode::BadMagic, "'" + file + "' is not an HDF5 file");
     }
     Hid f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
     if (!f.valid()) throw Error(ErrorCode::IoError, "cannot open '" + file + "': " + hdf5_error_text());
+    Hid dapl(hdf5_guard::make_safe_dataset_access(file), H5Pclose);
     std::string dataset = normalize_dataset(dataset_in);
     if (dataset_in.empty()) {
         // No path given: the file's only dataset.
-        auto all = list_datasets(f.get());
+        auto all = list_datasets(f.get(), dapl.get());
         if (all.size() == 1) {
             dataset = all[0];
         } else if (all.size() > 1) {
@@ -281,16 +290,23 @@ Volume read_hdf5(const std::string& file, const std::string& dataset_in, const V
         if (p == dataset.size() || dataset[p] == '/') {
             std::string prefix = dataset.substr(0, p);
             if (prefix == "/") continue;
-            exists = H5Lexists(f.get(), prefix.c_str(), H5P_DEFAULT) > 0;
+            exists = H5Lexists(f.get(), prefix.c_str(), dapl.get()) > 0;
+            H5L_info_t link{};
+            if (exists && H5Lget_info(f.get(), prefix.c_str(), &link, dapl.get()) >= 0 && link.type != H5L_TYPE_HARD &&
+                link.type != H5L_TYPE_SOFT)
+                throw Error(ErrorCode::UnsupportedFeature,
+                            "'" + file + "': '" + prefix +
+                                "' is an external (or user-defined) link to another file; tetlod reads only data "
+                                "stored in the file itself");
         }
     }
     H5Eclear2(H5E_DEFAULT);
     Hid d;
-    if (exists) d = Hid(H5Dopen2(f.get(), dataset.c_str(), H5P_DEFAULT), H5Dclose);
+    if (exists) d = Hid(H5Dopen2(f.get(), dataset.c_str(), dapl.get()), H5Dclose);
     if (!d.valid()) {
         H5Eclear2(H5E_DEFAULT);
         std::string list;
-        for (const auto& n : list_datasets(f.get())) list += (list.empty() ? "" : ", ") + n;
+        for (const auto& n : list_datasets(f.get(), dapl.get())) list += (list.empty() ? "" : ", ") + n;
         throw Error(ErrorCode::NotFound, "'" + file + "' has no dataset '" + dataset + "' (datasets: " +
                                              (list.empty() ? "none" : list) + ")");
     }
@@ -340,11 +356,14 @@ Volume read_hdf5(const std::string& file, const std::string& dataset_in, const V
 
     // Before allocating: a contiguous dataset must lie inside the file.
     Hid dcpl(H5Dget_create_plist(d.get()), H5Pclose);
+    hdf5_guard::check_dataset_claims(d.get(), dcpl.get(),
+                                     static_cast<uint64_t>(dims.count()) * H5Tget_size(ftype.get()),
+                                     H5Tget_size(ftype.get()), file, file_size, what);
     if (H5Pget_layout(dcpl.get()) == H5D_CONTIGUOUS && H5Pget_external_count(dcpl.get()) == 0) {
         haddr_t off = H5Dget_offset(d.get());
         uint64_t stored_bytes = static_cast<uint64_t>(dims.count()) * H5Tget_size(ftype.get());
-        uint64_t fsize = std::filesystem::file_size(file, ec);
-        if (off != HADDR_UNDEF && !ec && (off > fsize || fsize - off < stored_bytes))
+        uint64_t fsize = file_size;
+        if (off != HADDR_UNDEF && (off > fsize || fsize - off < stored_bytes))
             throw Error(ErrorCode::Truncated, what + ": file is truncated: the dataset needs " +
                                                   std::to_string(stored_bytes) + " bytes at offset " +
                                                   std::to_string(off) + ", the file has " + std::to_string(fsize));
@@ -411,6 +430,20 @@ Volume read_hdf5(const std::string& file, const std::string& dataset_in, const V
     for (const auto& [k, a] : attrs)
         if (!structural_attributes().count(k)) vol.metadata[k] = a.text;
     return vol;
+}
+
+}  // namespace
+
+Volume read_hdf5(const std::string& file, const std::string& dataset, const VolumeReadOptions& options) {
+    require_regular_file(file, "HDF5 file");
+    std::error_code ec;
+    const uint64_t file_size = std::filesystem::file_size(file, ec);
+    if (ec) throw Error(ErrorCode::IoError, "cannot open '" + file + "': " + ec.message());
+    hdf5_guard::check_hdf5_superblock(file, file_size);
+    if (!options.isolation.enabled) return read_hdf5_here(file, dataset, options, file_size);
+    // libhdf5 crashes or loops on some corrupt files: it reads in a child process.
+    IsolatedTask task{"the HDF5 library", file, isolation_time_limit(options.isolation, file_size)};
+    return read_volume_isolated(task, [&] { return read_hdf5_here(file, dataset, options, file_size); });
 }
 
 namespace {

@@ -16,6 +16,9 @@
 #include <unistd.h>
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/isolated_volume.hpp"
+#include "tetlod/core/regular_file.hpp"
+#include "vdb_read_guard.hpp"
 
 namespace tetlod {
 
@@ -43,27 +46,7 @@ bool is_scalar_type(const std::string& t) {
     return t == "float" || t == "double" || t == "int32" || t == "int64" || t == "bool";
 }
 
-// Integers in a metadata value's text ("[64, 64, 93]", "64 64 93").
-std::vector<int64_t> integers_in(const std::string& s) {
-    std::vector<int64_t> out;
-    std::size_t i = 0;
-    while (i < s.size()) {
-        if (std::isdigit(static_cast<unsigned char>(s[i])) ||
-            (s[i] == '-' && i + 1 < s.size() && std::isdigit(static_cast<unsigned char>(s[i + 1])))) {
-            std::size_t b = i++;
-            while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
-            if (i < s.size() && (s[i] == '.' || s[i] == 'e' || s[i] == 'E')) return {};  // not integers
-            out.push_back(std::stoll(s.substr(b, i - b)));
-        } else {
-            ++i;
-        }
-    }
-    return out;
-}
-
 openvdb::io::File open_file(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw Error(ErrorCode::IoError, "cannot open '" + path + "': no such file");
     openvdb::initialize();
     openvdb::io::File f(path);
     try {
@@ -147,7 +130,19 @@ bool try_narrow(Volume& vol, ValueType target) {
 
 }  // namespace
 
-std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path) {
+namespace {
+
+// What the library may read: a regular file whose layout the guard accepts.
+// Returns the file size.
+uint64_t check_before_library(const std::string& path) {
+    require_regular_file(path, "OpenVDB file");
+    std::error_code ec;
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + ec.message());
+    return size;
+}
+
+std::vector<std::pair<std::string, std::string>> list_vdb_grids_here(const std::string& path) {
     auto f = open_file(path);
     std::vector<std::pair<std::string, std::string>> out;
     try {
@@ -159,7 +154,8 @@ std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::strin
     return out;
 }
 
-Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
+// The read itself, in whichever process read_vdb chose.
+Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, uint64_t file_size) {
     const std::string what = "'" + path + "'";
     auto f = open_file(path);
     openvdb::GridBase::Ptr grid;
@@ -222,9 +218,17 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
     Extent ext;
     bool have_dims = false;
     if (auto meta = (*grid)["dims_xyz"]) {
-        auto n = integers_in(meta->str());
-        if (n.size() == 3 && n[0] > 0 && n[1] > 0 && n[2] > 0 && n[0] <= kMaxAxisSize && n[1] <= kMaxAxisSize &&
-            n[2] <= kMaxAxisSize) {
+        std::string raw;
+        if (meta->typeName() == "vec3i") {
+            const openvdb::Vec3i d = grid->metaValue<openvdb::Vec3i>("dims_xyz");
+            raw.resize(12);
+            std::memcpy(raw.data(), d.asPointer(), 12);
+        } else {
+            raw = meta->str();
+        }
+        const Dims nd = vdb_guard::parse_dims_xyz(meta->typeName(), raw, what + " grid '" + name + "'");
+        const int64_t n[3] = {nd.x, nd.y, nd.z};
+        {
             openvdb::CoordBBox declared(openvdb::Coord(0, 0, 0),
                                         openvdb::Coord(static_cast<int32_t>(n[0] - 1), static_cast<int32_t>(n[1] - 1),
                                                        static_cast<int32_t>(n[2] - 1)));
@@ -244,6 +248,9 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
         ext.dims = Dims{d.x(), d.y(), d.z()};
     }
     validate_dims(ext.dims, what + " grid '" + name + "'");
+    vdb_guard::check_dense_bound(ext.dims, vdb_guard::dense_value_bytes(short_type(*grid)), file_size,
+                                 what + " grid '" + name + "'",
+                                 have_dims ? "metadata dims_xyz" : "the active voxels' bounding box");
 
     Volume vol;
     try {
@@ -300,6 +307,25 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
         }
     }
     return vol;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path) {
+    const uint64_t size = check_before_library(path);
+    vdb_guard::check_vdb_layout(path, size);
+    IsolatedTask task{"OpenVDB", path, isolation_time_limit(IsolationOptions{}, size)};
+    return read_pairs_isolated(task, [&] { return list_vdb_grids_here(path); });
+}
+
+Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
+    const uint64_t size = check_before_library(path);
+    const auto layout = vdb_guard::check_vdb_layout(path, size);
+    vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
+    if (!options.isolation.enabled) return read_vdb_here(path, options, size);
+    // OpenVDB overflows its heap on some corrupt files: it reads in a child process.
+    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size)};
+    return read_volume_isolated(task, [&] { return read_vdb_here(path, options, size); });
 }
 
 namespace {

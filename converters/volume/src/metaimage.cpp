@@ -13,6 +13,7 @@
 #include "nrrd_metaimage_common.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/regular_file.hpp"
 
 namespace tetlod {
 
@@ -70,6 +71,7 @@ std::string escape(const std::string& s) {
 }
 
 Header read_header(const std::string& path) {
+    require_regular_file(path, "MetaImage header");
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
     if (!f) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
     Header h;

@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/regular_file.hpp"
 
 namespace tetlod::detail {
 
@@ -35,6 +36,7 @@ void swap_bytes(std::byte* p, std::size_t bytes, std::size_t width) {
 }
 
 uint64_t file_size_of(const std::string& path, const std::string& what) {
+    require_regular_file(path, "data file of " + what);
     std::error_code ec;
     auto size = std::filesystem::file_size(path, ec);
     if (ec)
@@ -43,6 +45,7 @@ uint64_t file_size_of(const std::string& path, const std::string& what) {
 }
 
 FilePtr open_read(const std::string& path, const std::string& what) {
+    require_regular_file(path, "data file of " + what);
     FilePtr f(std::fopen(path.c_str(), "rb"));
     if (!f)
         throw Error(ErrorCode::IoError,

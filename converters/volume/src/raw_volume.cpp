@@ -12,6 +12,7 @@
 
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/regular_file.hpp"
 
 namespace tetlod {
 
@@ -71,6 +72,7 @@ std::optional<RawNameInfo> parse_raw_volume_name(const std::string& path) {
 
 Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options) {
     // A missing file is the likelier mistake than a missing --dims: report it first.
+    require_regular_file(path, "raw volume");
     std::error_code ec;
     const auto actual = std::filesystem::file_size(path, ec);
     if (ec) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + ec.message());

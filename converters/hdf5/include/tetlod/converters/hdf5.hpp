@@ -1,6 +1,6 @@
 #pragma once
 // HDF5 volumes through the HDF5 C library: one dataset of a file, addressed as
-// FILE.h5:/path/to/dataset. Only hdf5_volume.cpp includes hdf5.h.
+// FILE.h5:/path/to/dataset. Only hdf5_volume.cpp and hdf5_read_guard.cpp include hdf5.h.
 //
 // Read: a dataset of rank 1..3, any integer (8/16/32-bit; 64-bit integers when
 // every value fits int32 are refused for simplicity: ErrorCode::UnsupportedFeature)
@@ -15,6 +15,13 @@
 //    "field_name" and "units" attributes set those fields.
 //  - every other attribute (numbers or strings) is kept in Volume::metadata as
 //    text.
+// Hostile files: the path must be a regular file (a FIFO is refused before it is
+// opened) and the superblock is checked by tetlod itself; libhdf5 then reads in
+// a child process (VolumeReadOptions::isolation), so a crash or endless loop in
+// the library becomes ErrorCode::CorruptData. External links, virtual datasets
+// and external raw-data files outside the file's folder (or not regular files)
+// are refused; a chunked dataset may not declare more than 1100x its stored
+// chunk bytes (+1 MiB) before anything is allocated.
 // Large datasets are read in bounded slabs. Errors (missing file or dataset,
 // wrong type, truncated file) are tetlod::Error naming the file and dataset.
 #include <string>

@@ -21,7 +21,13 @@
 //    records the grid's value type (float, double, int32, int64, bool), so
 //    write_vdb writes the same grid type again.
 // Safe on untrusted input: errors from the library become tetlod::Error naming
-// the file.
+// the file. The path must be a regular file; tetlod parses the header, grid
+// descriptors and grid metadata itself first (every length within the file),
+// then OpenVDB reads in a child process (VolumeReadOptions::isolation) so a
+// crash or hang in the library becomes ErrorCode::CorruptData. The dense extent
+// (dims_xyz or the active bounding box) may need at most 4096 bytes per file
+// byte + 64 MiB (ErrorCode::TooLarge); dims_xyz that is not three positive
+// integers is ErrorCode::CorruptData.
 #include <string>
 #include <vector>
 

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "tetlod/core/isolated_process.hpp"
 #include "tetlod/core/volume.hpp"
 
 namespace tetlod {
@@ -30,6 +31,9 @@ struct VolumeReadOptions {
     // (absolute paths elsewhere, ".."). Off by default: a header downloaded with
     // a dataset must not make tetlod read arbitrary files such as /etc/shadow.
     bool allow_external_data = false;
+    // OpenVDB and HDF5: the third-party library reads in a child process with a
+    // time limit, so a crash or hang inside it becomes a clean error (default on).
+    IsolationOptions isolation;
 };
 
 }  // namespace tetlod
