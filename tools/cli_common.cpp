@@ -17,6 +17,7 @@ namespace tetlod::cli {
 namespace {
 
 int g_verbosity = 0;
+bool g_results_to_stderr = false;
 
 // An empty flag leaves the name out: CLI11 prefixes its own when a check fails.
 Error bad(const std::string& flag, const std::string& text, const std::string& why) {
@@ -52,8 +53,11 @@ void set_verbosity(int level) { g_verbosity = level; }
 
 std::ostream& out() {
     static std::ostream null_stream(nullptr);  // no buffer: every write is dropped
-    return g_verbosity < 0 ? null_stream : std::cout;
+    if (g_verbosity < 0) return null_stream;
+    return g_results_to_stderr ? std::cerr : std::cout;
 }
+
+void set_results_to_stderr(bool yes) { g_results_to_stderr = yes; }
 
 void detail(const std::string& message) {
     if (g_verbosity >= 1) std::cerr << message << "\n";

@@ -24,8 +24,10 @@ namespace tetlod::cli {
 /// -1 quiet, 0 normal, 1+ verbose. Set once by main after parsing.
 int verbosity();
 void set_verbosity(int level);
-/// Where results go: stdout, or a sink that drops everything under -q.
+/// Where results go: stdout, or a sink that drops everything under -q; stderr
+/// when the command writes its output to standard output ("-").
 std::ostream& out();
+void set_results_to_stderr(bool yes);
 /// Verbose detail (-v) to stderr.
 void detail(const std::string& message);
 

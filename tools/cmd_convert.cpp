@@ -15,6 +15,7 @@
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/utf8.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 
@@ -48,11 +49,22 @@ int run_convert(const ConvertArgs& a) {
     const bool with_mt = a.model == "mt" || a.model == "ht,mt" || a.model == "mt,ht";
     if (!with_ht && !with_mt)
         throw Error(ErrorCode::InvalidArgument, "--model '" + a.model + "': expected ht, mt or ht,mt");
-    Volume v = load_volume(a.input, a.volume.options());
+    // --meta is checked before the (possibly long) read.
     for (const std::string& kv : a.meta) {
         const auto eq = kv.find('=');
         if (eq == std::string::npos || eq == 0)
             throw Error(ErrorCode::InvalidArgument, "--meta '" + kv + "': expected key=value");
+        // Metadata is text for every reader (JSON, HDF5 UTF-8 attributes): refuse
+        // bytes that are not UTF-8 (a Latin-1 shell, a mistyped escape).
+        if (const std::size_t bad = first_invalid_utf8(kv); bad != kv.size())
+            throw Error(ErrorCode::InvalidArgument,
+                        "--meta: the " + std::string(bad < eq ? "key" : "value") + " of entry " +
+                            std::to_string(&kv - a.meta.data() + 1) + " is not valid UTF-8 (byte " +
+                            std::to_string(bad) + " of the argument); give UTF-8 text");
+    }
+    Volume v = load_volume(a.input, a.volume.options());
+    for (const std::string& kv : a.meta) {
+        const auto eq = kv.find('=');
         v.metadata[kv.substr(0, eq)] = kv.substr(eq + 1);
     }
     tlod::Metadata meta = tlod::metadata_for_volume(v);

@@ -12,7 +12,10 @@
 #include <ostream>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
+#include "lod_model.hpp"
+#include "tetlod/codec/mt/mt_container.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
 #include "tetlod/codec/mesh_resample.hpp"
@@ -100,24 +103,21 @@ int run_decode(const DecodeArgs& a) {
         throw Error(ErrorCode::NotBuilt,
                     "'" + a.output + "': this build of tetlod cannot write that format");
     // A .tlod name that is missing or not a container gets the container reader's message.
-    const std::string ext = std::filesystem::path(a.input).extension().string();
-    const bool container = is_tlod_file(a.input) || ext == ".tlod" || ext == ".TLOD";
+    const bool container = container_input(a.input);
     Stopwatch clock;
 
     if (!lod) {  // the original volume, bit-exact
-        const Volume v = container ? read_container(a.input) : load_volume(a.input, a.volume.options());
+        const ContainerModels held = container ? container_models(a.input) : ContainerModels{};
+        const Volume v = !container ? load_volume(a.input, a.volume.options())
+                         : (held.mt && !held.ht) ? mt_container_volume(a.input, load_mt_model(a.input))
+                                                 : read_container(a.input);
         write_volume(v, a.output, a.format);
         warn_metadata_lost(v, a.output, a.format);
         print_written(a.output, where, v, clock.seconds());
         return 0;
     }
 
-    const bool mt = a.model == "mt";
-    if (container && mt)
-        throw Error(ErrorCode::UnsupportedFeature,
-                    "'" + a.input +
-                        "': --model mt needs the volume itself (this decoder reads the HT of "
-                        "containers); give the volume file or use --model ht");
+    const bool mt = resolve_model(a.model, a.input) == "mt";
     const auto error_in = a.lod.error_in();
     const auto error_out = a.lod.error_out_threshold();
     LodQuery query = a.lod.region_query(nullptr);
@@ -126,7 +126,10 @@ int run_decode(const DecodeArgs& a) {
     Volume original;
     std::unique_ptr<HtModel> ht;
     std::unique_ptr<MtModel> mtm;
-    if (container) {
+    if (container && mt) {  // the container's MT (load_mt_model names the file if it has none)
+        mtm = std::make_unique<MtModel>(load_mt_model(a.input));
+        original = mt_container_volume(a.input, *mtm);
+    } else if (container) {
         auto r = tlod::ContainerReader::open(a.input);
         if (!r) throw Error(r.failure().code, r.failure().message);
         auto d = decode_ht(*r);
@@ -221,7 +224,7 @@ const CommandRegistration registration{Command{
         add_lod_flags(sub, a->lod, lod,
                       "Decode the LOD mesh at this error (inside the region if any)",
                       "Decode the full-resolution mesh (equals the original)");
-        sub.add_option("--model", a->model, "Model for --error: ht (default) or mt (volume inputs)")
+        sub.add_option("--model", a->model, "Model for --error: ht (default) or mt (default for a .tlod holding only an MT)")
             ->group(lod)
             ->check(CLI::IsMember({"ht", "mt"}));
         sub.footer(

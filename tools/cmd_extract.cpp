@@ -8,7 +8,9 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
+#include "cli_outputs.hpp"
 #include "extract_tlod.hpp"
+#include "lod_model.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
 #include "tetlod/codec/mt/mt_model.hpp"
@@ -20,14 +22,14 @@ namespace tetlod::cli {
 namespace {
 
 struct ExtractArgs {
-    std::string input, output, model = "ht", format;  // empty: not given
+    std::string input, output, model, format;  // empty: not given
     LodFlags lod;
     bool pad = false, no_compress = false;
     VolumeFlags volume;
 };
 
 int run_extract(const ExtractArgs& a) {
-    const bool mt = a.model == "mt";
+    const bool mt = resolve_model(a.model, a.input) == "mt";
     if (mt && a.pad)
         throw Error(ErrorCode::InvalidArgument,
                     "--pad applies to the HT only (the MT always covers the data's bounding box): "
@@ -36,7 +38,7 @@ int run_extract(const ExtractArgs& a) {
     const auto error_in = a.lod.error_in();
     const auto error_out = a.lod.error_out_threshold();
 
-    if (is_tlod_file(a.input)) {  // containers: lazy extraction, no model build
+    if (container_input(a.input)) {  // containers: lazy extraction, no model build
         TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
         t.model = mt ? "mt" : "ht";
         t.query = a.lod.region_query(nullptr);
@@ -129,9 +131,8 @@ const CommandRegistration registration{Command{
         const std::string model = "Model and output";
         sub.add_option("--model", a->model,
                        "Multiresolution model: ht (Hierarchy of Tetrahedra) or mt "
-                       "(Multi-Tessellation, volume inputs)")
+                       "(Multi-Tessellation). Default: ht, or the MT of a .tlod holding only an MT")
             ->group(model)
-            ->capture_default_str()
             ->check(CLI::IsMember({"ht", "mt"}));
         sub.add_flag("--pad", a->pad,
                      "Embed the volume in the enclosing (2^k+1)^3 cube (mesh covers it)")

@@ -136,7 +136,8 @@ int run_info(const InfoArgs& a) {
                                      {"arg0", s.arg0}, {"arg1", s.arg1}});
         }
         j["bytes_read"] = r->bytes_read();
-        out() << j.dump(2) << "\n";
+        // User metadata values are arbitrary bytes (spec): never fail on them.
+        out() << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
         return 0;
     }
     auto& o = out();

@@ -22,7 +22,7 @@ namespace tetlod::cli {
 namespace {
 
 struct IsoArgs {
-    std::string input, output, model = "ht", error = "0", error_out, box, format;
+    std::string input, output, model, error = "0", error_out, box, format;
     std::vector<std::string> isovalues;
     bool ascii = false, pad = false, no_normals = false, ply_extras = false;
     VolumeFlags volume;
@@ -42,7 +42,7 @@ int run_isosurface(const IsoArgs& a) {
     for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
     if (!a.box.empty()) query.box = parse_box(a.box, "--box");
 
-    const LodModel model = load_model(a.input, parse_model_kind(a.model), a.volume, a.pad, false);
+    const LodModel model = load_model(a.input, parse_model_kind(resolve_model(a.model, a.input)), a.volume, a.pad, false);
     const auto range = model.range;
     query.error_in = error_in.resolve(range);
     query.error_out = error_out.resolve(range);
@@ -113,9 +113,9 @@ const CommandRegistration registration{Command{
             ->group(lod)
             ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
         const std::string model = "Model and output";
-        sub.add_option("--model", a->model, "Multiresolution model: ht or mt (a .tlod must hold it)")
+        sub.add_option("--model", a->model, "Multiresolution model: ht or mt (a .tlod must hold it; default: ht, or the MT "
+                       "of a .tlod holding only an MT)")
             ->group(model)
-            ->capture_default_str()
             ->check(CLI::IsMember({"ht", "mt"}));
         sub.add_flag("--pad", a->pad, "HT: embed the volume in the enclosing (2^k+1)^3 cube")
             ->group(model);

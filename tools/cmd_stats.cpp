@@ -7,6 +7,7 @@
 #include <ostream>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 #include "lod_model.hpp"
 #include "model_stats.hpp"
@@ -28,10 +29,14 @@ int run_stats(const StatsArgs& a) {
     StatsOptions opt;
     for (const auto& s : a.isovalues) opt.isovalues.push_back(parse_number(s, "--isovalue"));
     std::vector<ModelKind> kinds;
-    const bool tlod = is_tlod_file(a.input);
-    if (a.models == "all")
-        kinds = tlod ? std::vector<ModelKind>{ModelKind::Ht} : std::vector<ModelKind>{ModelKind::Ht, ModelKind::Mt};
-    else
+    const bool tlod = container_input(a.input);
+    if (a.models == "all" && tlod) {  // the models the container holds
+        const ContainerModels held = container_models(a.input);
+        if (held.ht || !held.mt) kinds.push_back(ModelKind::Ht);  // neither: the HT reader says why
+        if (held.mt) kinds.push_back(ModelKind::Mt);
+    } else if (a.models == "all") {
+        kinds = {ModelKind::Ht, ModelKind::Mt};
+    } else
         kinds = {parse_model_kind(a.models)};
     std::vector<ModelStats> stats;
     if (tlod) {
@@ -71,7 +76,7 @@ const CommandRegistration registration{Command{
         sub.add_option("input", a->input, "A .tlod file or a volume")->required();
         add_volume_flags(sub, a->volume);
         const std::string g = "Measurements";
-        sub.add_option("--model", a->models, "ht, mt or all (.tlod files hold the HT only)")
+        sub.add_option("--model", a->models, "ht, mt or all (for a .tlod: the models it holds)")
             ->group(g)
             ->capture_default_str()
             ->check(CLI::IsMember({"ht", "mt", "all"}));

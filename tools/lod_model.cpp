@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "tetlod/codec/ht/ht_codec.hpp"
 #include "tetlod/codec/ht/ht_model.hpp"
 #include "tetlod/codec/mt/mt_codec.hpp"
@@ -20,6 +21,43 @@ ModelKind parse_model_kind(const std::string& text) {
     if (text == "ht" || text == "HT") return ModelKind::Ht;
     if (text == "mt" || text == "MT") return ModelKind::Mt;
     throw Error(ErrorCode::InvalidArgument, "--model '" + text + "': expected ht or mt");
+}
+
+ContainerModels container_models(const std::string& path) {
+    ContainerModels m;
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) return m;
+    m.ht = (r->header().required_features & tlod::kFeatureHt) != 0;
+    m.mt = container_has_mt(*r);
+    return m;
+}
+
+std::string resolve_model(const std::string& given, const std::string& input) {
+    if (!container_input(input)) return given.empty() ? "ht" : given;
+    const ContainerModels m = container_models(input);
+    if (!m.ht && !m.mt) return given.empty() ? "ht" : given;  // unreadable: the reader says why
+    if (given.empty()) return m.mt && !m.ht ? "mt" : "ht";   // the only model present
+    if ((given == "ht" && !m.ht) || (given == "mt" && !m.mt))
+        throw Error(ErrorCode::InvalidArgument,
+                    "--model " + given + ": '" + input + "' holds no " + (given == "ht" ? "HT" : "MT") +
+                        " (it holds the " + (m.ht ? "HT" : "MT") + "; drop --model or use --model " +
+                        (m.ht ? "ht" : "mt") + ")");
+    return given;
+}
+
+Volume mt_container_volume(const std::string& path, const MtModel& mt) {
+    Volume v = mt.field();
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) throw Error(r.failure().code, r.failure().message);
+    auto layout = read_mt_layout(*r);
+    if (!layout) throw Error(layout.failure().code, layout.failure().message);
+    const tlod::Metadata& meta = layout->metadata;
+    v.spacing = meta.spacing;
+    v.origin = meta.origin;
+    v.field_name = meta.field_name();
+    v.units = meta.units();
+    for (const auto& [k, val] : meta.user_keys) v.metadata[k] = val;
+    return v;
 }
 
 TetMesh LodModel::extract(const LodQuery& q) const {
@@ -74,7 +112,7 @@ LodModel build_model(ModelKind kind, Volume volume, bool pad, bool measure_stora
 
 LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& flags, bool pad,
                     bool measure_storage) {
-    if (is_tlod_file(path)) {
+    if (container_input(path)) {
         if (kind == ModelKind::Mt) {
             // load_mt_model throws (naming the file) when the container has no MT.
             LodModel m;

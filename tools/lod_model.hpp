@@ -56,4 +56,19 @@ LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& 
 
 ModelKind parse_model_kind(const std::string& text);
 
+/// The models a .tlod holds (both false when it cannot be opened: the reader
+/// used next reports why).
+struct ContainerModels {
+    bool ht = false, mt = false;
+};
+ContainerModels container_models(const std::string& path);
+
+/// --model as given; when not given (empty), the only model of a container that
+/// holds just an MT is "mt", everything else "ht".
+std::string resolve_model(const std::string& given, const std::string& input);
+
+/// The volume an MT-only container stores (its MT's field), described by the
+/// container's metadata (spacing, origin, field name, units, user keys).
+Volume mt_container_volume(const std::string& path, const MtModel& mt);
+
 }  // namespace tetlod::cli

@@ -1,7 +1,11 @@
 // tetlod: git-style command line. Subcommands register themselves (command.hpp);
 // this file only wires them into CLI11 and maps failures to exit codes:
-//   0 success, 2 bad usage (CLI11 parse errors, InvalidArgument), and otherwise
-//   tetlod::exit_code_for() of the error (3 I/O, 4 bad input, 5 not built).
+//   0 success, 2 bad usage (CLI11 parse errors, InvalidArgument, an output that
+//   exists without -f or is an input), and otherwise tetlod::exit_code_for() of
+//   the error (3 I/O or missing file, 4 bad input data, 5 not built).
+// It also installs the run's output policy (core/output_policy.hpp, -f/--force):
+// inputs are registered, outputs checked before any work, "-" inputs read from
+// standard input, and every file written is reported.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <exception>
@@ -9,8 +13,10 @@
 #include <new>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/output_policy.hpp"
 #include "tetlod/format/container.hpp"
 
 namespace tetlod::cli {
@@ -34,10 +40,16 @@ int main(int argc, char** argv) {
     int verbose = 0;
     app.add_flag("-q,--quiet", quiet, "Print only errors");
     app.add_flag("-v,--verbose", verbose, "Print more detail (repeat for more)");
+    bool force = false;
+    app.add_flag("-f,--force", force, "Overwrite existing output files (never an input of the command)");
     app.footer(
         "Run 'tetlod <command> --help' for the options of a command.\n"
-        "Exit codes: 0 ok, 2 bad usage, 3 I/O error, 4 bad input data, "
-        "5 feature not built.");
+        "Outputs: an existing file (or the data file of a .nhdr/.mhd, the .sol of a .mesh) is\n"
+        "only replaced with -f; an input of the same command never; FILE.h5:/path adds or\n"
+        "replaces that one dataset. '-' is standard output (or input) where the format streams:\n"
+        "results then go to stderr. Every file written is reported.\n"
+        "Exit codes: 0 ok, 2 bad usage (also: output exists without -f, or is an input),\n"
+        "3 I/O error or missing file, 4 bad input data, 5 feature not built.");
 
     auto commands = cli::command_registry();
     std::stable_sort(
@@ -47,6 +59,10 @@ int main(int argc, char** argv) {
     for (const auto& c : commands) {
         CLI::App* sub = app.add_subcommand(c.name, c.summary);
         runners.emplace_back(sub, c.setup(*sub));
+        // "-" as the input: standard input, copied to a temporary file when parsed.
+        if (CLI::Option* in = sub->get_option_no_throw("input"))
+            in->transform([](const std::string& s) { return is_std_stream(s) ? cli::stdin_as_file() : s; },
+                          "", "stdin");
     }
 
     // CLI11 reports a mistyped command as "A subcommand is required": name it instead.
@@ -82,9 +98,25 @@ int main(int argc, char** argv) {
     }
     cli::set_verbosity(quiet ? -1 : verbose);
 
+    OutputPolicy policy;
+    policy.force = force;
+    policy.force_hint = "use -f/--force to overwrite it";
+    ScopedOutputPolicy policy_scope(policy);
     try {
-        for (auto& [sub, run] : runners)
-            if (sub->parsed()) return run();
+        for (auto& [sub, run] : runners) {
+            if (!sub->parsed()) continue;
+            std::string output;
+            if (CLI::Option* in = sub->get_option_no_throw("input"); in && in->count())
+                cli::add_input(policy, in->as<std::string>());
+            if (CLI::Option* o = sub->get_option_no_throw("output"); o && o->count())
+                output = o->as<std::string>();
+            if (is_std_stream(output)) cli::set_results_to_stderr(true);  // stdout carries the data
+            cli::precheck_output(policy, output);
+            const int code = run();
+            cli::mark_reported(output);  // the command's own summary line names it
+            cli::report_unreported(policy);
+            return code;
+        }
     } catch (const Error& e) {
         std::cerr << "tetlod: error: " << e.what() << "\n";
         return exit_code_for(e.code());

@@ -20,6 +20,8 @@
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/isolated_volume.hpp"
 #include "tetlod/core/regular_file.hpp"
+#include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
 
@@ -468,6 +470,29 @@ void write_array_attr(hid_t obj, const char* name, hid_t ftype, hid_t mtype, con
         throw Error(ErrorCode::IoError, what + ": cannot write attribute '" + name + "': " + hdf5_error_text());
 }
 
+// Makes room for `dataset` in an existing file: nothing to do when no link has
+// that name; an existing dataset is unlinked when the policy allows replacing it;
+// a group (or anything else) is never removed (it may hold many datasets).
+void replace_dataset_link(hid_t file, const std::string& file_name, const std::string& dataset, const std::string& what,
+                          const OutputPolicy* policy) {
+    std::string prefix;
+    std::size_t pos = 0;
+    while (pos < dataset.size()) {  // every link on the path must exist (H5Lexists needs its parents)
+        const std::size_t next = dataset.find('/', pos + 1);
+        prefix = dataset.substr(0, next);
+        if (H5Lexists(file, prefix.c_str(), H5P_DEFAULT) <= 0) return;
+        if (next == std::string::npos) break;
+        pos = next;
+    }
+    Hid obj(H5Oopen(file, dataset.c_str(), H5P_DEFAULT), H5Oclose);
+    if (!obj.valid() || H5Iget_type(obj.get()) != H5I_DATASET)
+        throw Error(ErrorCode::InvalidArgument, what + " exists and is not a dataset: refusing to replace it");
+    obj.reset();
+    if (policy) policy->check_replace(file_name + ":" + dataset, true);
+    if (H5Ldelete(file, dataset.c_str(), H5P_DEFAULT) < 0)
+        throw Error(ErrorCode::IoError, what + ": cannot remove the old dataset: " + hdf5_error_text());
+}
+
 }  // namespace
 
 std::vector<std::string> hdf5_unstorable_keys(const Volume& vol) {
@@ -488,31 +513,37 @@ void write_hdf5(const Volume& vol, const std::string& file, const std::string& d
         throw Error(ErrorCode::InvalidArgument, what + ": deflate level must be 0..9");
     silence_hdf5();
 
-    // The library writes the file itself, so atomicity comes from a unique
-    // temporary name in the target's directory renamed over the target at the end.
-    std::filesystem::path target(file);
-    std::filesystem::path dir = target.parent_path();
-    if (dir.empty()) dir = ".";
-    std::string temp_name = target.filename().string();
-    temp_name.insert(temp_name.begin(), '.');  // hidden; (not "." + s: GCC 12 -Wrestrict false positive)
-    temp_name += ".tmp.XXXXXX";
-    std::string temp = (dir / temp_name).string();
-    int fd = ::mkstemp(temp.data());
-    if (fd < 0)
-        throw Error(ErrorCode::IoError, "cannot create a temporary file for '" + file + "': " + std::strerror(errno));
-    ::fchmod(fd, 0644);
-    ::close(fd);
-    struct TempGuard {
-        std::string path;
-        bool keep = false;
-        ~TempGuard() {
-            if (!keep) ::unlink(path.c_str());
-        }
-    } guard{temp};
+    // The library writes the file itself: atomicity comes from a temporary copy
+    // beside the target (symlinks followed) renamed over it at the end. An existing
+    // HDF5 file is copied first so its other datasets and attributes survive;
+    // only `dataset` is added or (with the policy's force) replaced.
+    AtomicPath out(file, "HDF5", /*check_policy=*/false);
+    const std::string& temp = out.temp_path();
+    OutputPolicy* policy = active_output_policy();
+    if (policy) policy->check_not_input(file, dataset);
+    bool update = false;  // open the copy of an existing HDF5 file, else create a new file
+    if (out.target_exists()) {
+        std::error_code ec;
+        std::filesystem::copy_file(out.resolved_target(), temp, std::filesystem::copy_options::overwrite_existing,
+                                   ec);
+        if (ec) throw Error(ErrorCode::IoError, "cannot copy '" + file + "' to update it: " + ec.message());
+#if H5_VERSION_GE(1, 12, 0)
+        update = H5Fis_accessible(temp.c_str(), H5P_DEFAULT) > 0;
+#else
+        update = H5Fis_hdf5(temp.c_str()) > 0;
+#endif
+        // Not an HDF5 file: the whole file would be replaced.
+        if (!update && policy) policy->check_replace(file, true);
+    }
 
     {
-        Hid f(H5Fcreate(temp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-        if (!f.valid()) throw Error(ErrorCode::IoError, "cannot create '" + file + "': " + hdf5_error_text());
+        Hid f(update ? H5Fopen(temp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT)
+                     : H5Fcreate(temp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
+              H5Fclose);
+        if (!f.valid())
+            throw Error(ErrorCode::IoError,
+                        std::string("cannot ") + (update ? "open" : "create") + " '" + file + "': " + hdf5_error_text());
+        if (update) replace_dataset_link(f.get(), file, dataset, what, policy);
         hsize_t shape[3] = {static_cast<hsize_t>(vol.dims.z), static_cast<hsize_t>(vol.dims.y),
                             static_cast<hsize_t>(vol.dims.x)};
         Hid space(H5Screate_simple(3, shape, nullptr), H5Sclose);
@@ -551,14 +582,7 @@ void write_hdf5(const Volume& vol, const std::string& file, const std::string& d
         if (H5Fflush(f.get(), H5F_SCOPE_GLOBAL) < 0)
             throw Error(ErrorCode::IoError, "cannot flush '" + file + "': " + hdf5_error_text());
     }
-    int sfd = ::open(temp.c_str(), O_RDONLY);
-    if (sfd >= 0) {
-        ::fsync(sfd);
-        ::close(sfd);
-    }
-    if (::rename(temp.c_str(), file.c_str()) != 0)
-        throw Error(ErrorCode::IoError, "cannot rename to '" + file + "': " + std::strerror(errno));
-    guard.keep = true;
+    out.commit();
 }
 
 }  // namespace tetlod

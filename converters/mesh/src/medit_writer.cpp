@@ -9,6 +9,8 @@
 
 #include "mesh_check.hpp"
 #include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/error.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
 
@@ -27,6 +29,10 @@ std::string medit_sol_path(const std::string& mesh_path) {
 }
 
 void write_medit(const TetMesh& mesh, const std::string& path) {
+    if (is_std_stream(path))
+        throw Error(ErrorCode::InvalidArgument,
+                    "Medit cannot be written to standard output ('-'): the field goes to a .sol file "
+                    "beside the .mesh; give a file name or another format");
     detail::check_tet_mesh(mesh, path);
     std::string s;
     s.reserve(mesh.points.size() * 64 + mesh.tets.size() * 40 + 256);
@@ -56,9 +62,14 @@ void write_medit(const TetMesh& mesh, const std::string& path) {
     }
     sol += "\nEnd\n";
 
-    // Write the .sol first: a reader that finds the .mesh finds its field too.
-    write_file_atomic(medit_sol_path(path), sol.data(), sol.size());
-    write_file_atomic(path, s.data(), s.size());
+    // Both files pass the output policy before either is committed; the .sol is
+    // committed first so a reader that finds the .mesh finds its field too.
+    AtomicFile sol_file(medit_sol_path(path));
+    AtomicFile mesh_file(path);
+    sol_file.write(sol);
+    mesh_file.write(s);
+    sol_file.commit();
+    mesh_file.commit();
 }
 
 }  // namespace tetlod

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/isolated_volume.hpp"
 #include "tetlod/core/regular_file.hpp"
@@ -436,39 +437,19 @@ void write_vdb(const Volume& vol, const std::string& path) {
     grid->insertMeta("tetlod_value_type", openvdb::StringMetadata(value_type_name(vol.type)));
     if (!vol.units.empty()) grid->insertMeta("units", openvdb::StringMetadata(vol.units));
 
-    // The library writes the file itself: write a unique temporary file in the
-    // target's directory, then rename it over the target.
-    std::filesystem::path target(path);
-    std::filesystem::path dir = target.parent_path();
-    if (dir.empty()) dir = ".";
-    std::string temp_name = target.filename().string();
-    temp_name.insert(temp_name.begin(), '.');
-    temp_name += ".tmp.XXXXXX";
-    std::string temp = (dir / temp_name).string();
-    int fd = ::mkstemp(temp.data());
-    if (fd < 0)
-        throw Error(ErrorCode::IoError, "cannot create a temporary file for " + what + ": " + std::strerror(errno));
-    ::fchmod(fd, 0644);
-    ::close(fd);
+    // The library writes the file itself: a temporary file beside the target
+    // (symlinks followed), renamed over it (core AtomicPath: output policy, no
+    // streams, devices or FIFOs).
+    AtomicPath target(path, "OpenVDB");
     try {
-        openvdb::io::File out(temp);
+        openvdb::io::File out(target.temp_path());
         openvdb::GridPtrVec grids{grid};
         out.write(grids);
         out.close();
-        int sfd = ::open(temp.c_str(), O_RDONLY);
-        if (sfd >= 0) {
-            ::fsync(sfd);
-            ::close(sfd);
-        }
-        if (::rename(temp.c_str(), path.c_str()) != 0)
-            throw Error(ErrorCode::IoError, "cannot rename to " + what + ": " + std::strerror(errno));
-    } catch (const Error&) {
-        ::unlink(temp.c_str());
-        throw;
     } catch (const std::exception& e) {
-        ::unlink(temp.c_str());
         throw Error(ErrorCode::IoError, "cannot write " + what + ": " + e.what());
     }
+    target.commit();
 }
 
 }  // namespace tetlod

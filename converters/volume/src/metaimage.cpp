@@ -14,6 +14,7 @@
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/regular_file.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
 
@@ -355,14 +356,19 @@ void write_metaimage(const Volume& vol, const std::string& path, const MetaImage
         h += std::string("ElementType = ") + met_type_name(vol.type) + "\n";
         return h;
     };
+    if (detached && is_std_stream(path))
+        throw Error(ErrorCode::InvalidArgument,
+                    "a detached MetaImage header cannot be written to standard output ('-'): its data "
+                    "file needs a name; give a file name or the attached format");
     if (detached) {
         std::filesystem::path p(path);
         std::string data_name = p.stem().string() + (options.compress ? ".zraw" : ".raw");
+        // Both files pass the output policy before a sample is written.
         AtomicFile data((p.parent_path() / data_name).string());
+        AtomicFile header(path);
         uint64_t bytes = write_samples(data, vol, options.endian, comp, false);
         if (options.compress) hdr += "CompressedDataSize = " + std::to_string(bytes) + "\n";
         hdr = tail(hdr) + "ElementDataFile = " + data_name + "\n";
-        AtomicFile header(path);
         header.write(hdr);
         data.commit();
         header.commit();

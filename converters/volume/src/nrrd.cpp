@@ -15,6 +15,7 @@
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/regular_file.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
 
@@ -454,14 +455,19 @@ void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptio
         hdr += escape(k) + ":=" + escape(v) + "\n";
     }
     Compression comp = options.gzip ? Compression::Deflate : Compression::None;
+    if (detached && is_std_stream(path))
+        throw Error(ErrorCode::InvalidArgument,
+                    "a detached NRRD header cannot be written to standard output ('-'): its data "
+                    "file needs a name; give a file name or the attached format");
     if (detached) {
         std::filesystem::path p(path);
         std::string data_name = p.stem().string() + (options.gzip ? ".raw.gz" : ".raw");
         std::string data_path = (p.parent_path() / data_name).string();
+        // Both files pass the output policy before a sample is written.
         AtomicFile data(data_path);
+        AtomicFile header(path);
         write_samples(data, vol, options.endian, comp, true);
         hdr += "data file: " + data_name + "\n";
-        AtomicFile header(path);
         header.write(hdr);
         data.commit();
         header.commit();

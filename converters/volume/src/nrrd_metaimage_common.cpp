@@ -15,6 +15,7 @@
 
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/regular_file.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod::detail {
 
@@ -46,6 +47,7 @@ uint64_t file_size_of(const std::string& path, const std::string& what) {
 
 FilePtr open_read(const std::string& path, const std::string& what) {
     require_regular_file(path, "data file of " + what);
+    note_input_file(path);  // a data file of a detached header: never an output of this run
     FilePtr f(std::fopen(path.c_str(), "rb"));
     if (!f)
         throw Error(ErrorCode::IoError,

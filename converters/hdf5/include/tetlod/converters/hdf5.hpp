@@ -42,11 +42,14 @@ struct Hdf5WriteOptions {
     int deflate_level = 0;
 };
 
-/// Writes a new file holding `dataset` (parent groups created) of shape
-/// (Z, Y, X), the volume's type, attributes spacing (x y z), spacing_order "xyz",
-/// origin, dims_xyz, axis_order "zyx", field_name, units, and every metadata entry
-/// as a string attribute. Written to a temporary file in the same directory, then
-/// renamed over `file` (any previous content of `file` is replaced).
+/// Writes `dataset` (parent groups created) of shape (Z, Y, X), the volume's
+/// type, attributes spacing (x y z), spacing_order "xyz", origin, dims_xyz,
+/// axis_order "zyx", field_name, units, and every metadata entry as a string
+/// attribute. A new `file` is created; an existing HDF5 `file` keeps every other
+/// dataset, group and attribute: only `dataset` is added, or replaced when the
+/// installed OutputPolicy (core/output_policy.hpp) allows replacing (a group at
+/// that path is never replaced). Atomic: the update goes to a temporary copy in
+/// the same directory, renamed over `file` (a symlink's target) at the end.
 void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
                 const Hdf5WriteOptions& options = {});
 
