@@ -135,10 +135,10 @@ TEST(CliOutputs, DashIsStdoutAndStdinWhereTheFormatStreams) {
 }
 
 TEST(CliOutputs, Hdf5OutputAddsOrReplacesOneDatasetOnly) {
-    if (std::system("python3 -c 'import h5py' 2>/dev/null") != 0) GTEST_SKIP() << "python3-h5py not installed";
+    if (std::system("/usr/bin/python3 -c 'import h5py' 2>/dev/null") != 0) GTEST_SKIP() << "python3-h5py not installed";
     const std::string d = fresh_dir();
     const std::string h5 = d + "/a.h5";
-    ASSERT_EQ(sh("python3 -c \"import h5py, numpy; f = h5py.File('" + h5 +
+    ASSERT_EQ(sh("/usr/bin/python3 -c \"import h5py, numpy; f = h5py.File('" + h5 +
                  "', 'w'); f['keep/me'] = numpy.arange(5); f.attrs['note'] = 'file attr'; f['x'] = [1]\"")
                   .code,
               0);
@@ -153,7 +153,7 @@ TEST(CliOutputs, Hdf5OutputAddsOrReplacesOneDatasetOnly) {
     EXPECT_EQ(r.code, 2) << r.err;
     r = run_no_force("decode '" + h5 + ":/x' '" + h5 + ":/y' --error 1");
     EXPECT_EQ(r.code, 0) << r.err;
-    r = sh("python3 -c \"import h5py; f = h5py.File('" + h5 +
+    r = sh("/usr/bin/python3 -c \"import h5py; f = h5py.File('" + h5 +
            "', 'r'); print(list(f['keep/me'][:]), f.attrs['note'], f['lod/v'].shape, f['x'].shape, "
            "f['y'].shape)\"");
     EXPECT_EQ(r.code, 0) << r.err;
