@@ -121,6 +121,11 @@ TEST(CliOutputs, DashIsStdoutAndStdinWhereTheFormatStreams) {
     r = sh("'" + std::string(TETLOD_CLI_PATH) + "' convert - '" + d +
            "/s.tlod' --dims 9,9,9 --dtype u8 < '" + d + "/v_9x9x9_uint8.raw'");
     EXPECT_EQ(r.code, 0) << r.err;
+    // A .tlod through a pipe: convert to stdout, decode from stdin.
+    const std::string cli = std::string("'") + TETLOD_CLI_PATH + "'";
+    r = sh(cli + " convert '" + d + "/v_9x9x9_uint8.raw' - | " + cli + " decode - '" + d + "/piped.raw'");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(slurp(d + "/piped.raw"), raw);
     r = run_no_force("extract '" + d + "/v.tlod' - --format vtk --error 1");
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.out.rfind("# vtk DataFile", 0), 0u);
