@@ -124,7 +124,8 @@ int run_convert(const ConvertArgs& a) {
     }
     w.write(a.output);
 
-    const uint64_t size = std::filesystem::file_size(a.output);
+    std::error_code size_error;  // "-" (standard output) has no size
+    const uint64_t size = std::filesystem::file_size(a.output, size_error);
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
           << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())

@@ -9,10 +9,8 @@ namespace tetlod {
 
 void validate_dims(const Dims& d, const std::string& what) {
     for (int a = 0; a < 3; ++a) {
-        // Dims come from file headers here (flags are checked by their parsers):
-        // a volume without samples is bad input data.
         if (d[a] < 1)
-            throw Error(ErrorCode::CorruptData,
+            throw Error(ErrorCode::InvalidArgument,
                         what + ": dimension " + std::to_string(a) + " is " + std::to_string(d[a]) +
                             " (must be at least 1)");
         if (d[a] > kMaxAxisSize)

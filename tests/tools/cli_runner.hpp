@@ -38,8 +38,14 @@ inline CliRun sh(const std::string& cmd) {
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
 }
 
-/// Runs `tetlod ARGS`.
+/// Runs `tetlod -f ARGS`: the suites rerun into the same files, so outputs may
+/// be replaced (-f never lets an output replace an input).
 inline CliRun run(const std::string& args) {
+    return sh(std::string("'") + TETLOD_CLI_PATH + "' -f " + args);
+}
+
+/// Runs `tetlod ARGS` without -f: existing outputs are refused.
+inline CliRun run_no_force(const std::string& args) {
     return sh(std::string("'") + TETLOD_CLI_PATH + "' " + args);
 }
 

@@ -303,6 +303,10 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
     int64_t d[3] = {1, 1, 1};
     for (int a = 0; a < dimension; ++a) d[a] = parse_int(sizes[a], what + " sizes");
     Dims dims{d[0], d[1], d[2]};
+    for (int a = 0; a < 3; ++a)  // a header's claim, not a flag: bad input data (exit 4)
+        if (dims[a] < 1)
+            throw Error(ErrorCode::CorruptData, what + ": \"sizes\" axis " + std::to_string(a) + " is " +
+                                                    std::to_string(dims[a]) + " (must be at least 1)");
     validate_dims(dims, what);
 
     std::string enc = to_lower(*enc_s);

@@ -62,7 +62,7 @@ struct Volume {
 };
 
 /// Checks dims are each in [1, kMaxAxisSize] and the total below kMaxVolumePoints.
-/// Throws tetlod::Error(CorruptData for an empty axis, TooLarge) naming `what`.
+/// Throws tetlod::Error(InvalidArgument or TooLarge) naming `what`.
 void validate_dims(const Dims& dims, const std::string& what);
 
 }  // namespace tetlod
