@@ -114,6 +114,9 @@ int main(int argc, char** argv) {
             cli::precheck_output(policy, output);
             const int code = run();
             cli::mark_reported(output);  // the command's own summary line names it
+            // JSON on stdout stays parseable: the file list then goes to stderr.
+            if (CLI::Option* j = sub->get_option_no_throw("--json"); j && j->count())
+                cli::set_results_to_stderr(true);
             cli::report_unreported(policy);
             return code;
         }

@@ -227,7 +227,7 @@ TEST(DecodeLod, BadInputsFailClearlyAndWriteNothing) {
         {"decode " + q(tlod) + " " + q(o) + " --box 1,1,1,2,2,2", "--error", 2},
         {"decode " + q(tlod) + " " + q(o) + " --error 1 --error-out 2", "--error-out", 2},
         {"decode " + q(tlod) + " " + q(o) + " --error 1 --box 20,20,20,30,30,30", "outside", 2},
-        {"decode " + q(tlod) + " " + q(o) + " --error 1 --model mt", "--model mt", 4},
+        {"decode " + q(tlod) + " " + q(o) + " --error 1 --model mt", "--model mt", 2},  // the container holds no MT: names the flag
         {"decode " + q(tlod) + " " + q(o) + " --model mt", "--model", 2},
         {"decode " + q(tmp("bad_9x9x9_u8.raw")) + " " + q(o) + " --error 1 --model xx", "--model", 2},
     };
