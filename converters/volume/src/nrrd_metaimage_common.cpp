@@ -372,15 +372,9 @@ std::string resolve_data_file(const std::string& header_path, const std::string&
     const std::string resolved = resolve_beside(header_path, name);
     // Checked as each name is resolved, so a pattern naming a million missing
     // files fails at the first instead of listing them all; FIFOs and devices
-    // would block or never end.
+    // would block or never end (require_regular_file names the kind).
     auto require_regular = [&] {
-        std::error_code sec;
-        const auto st = fs::status(resolved, sec);
-        if (sec || !fs::exists(st))
-            throw Error(ErrorCode::IoError, what + ": cannot open data file '" + resolved + "': " +
-                                                (sec ? sec.message() : std::string("no such file")));
-        if (!fs::is_regular_file(st))
-            throw Error(ErrorCode::IoError, what + ": data file '" + resolved + "' is not a regular file");
+        require_regular_file(resolved, "data file of " + what);
         return resolved;
     };
     if (allow_external) return require_regular();
