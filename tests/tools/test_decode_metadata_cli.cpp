@@ -60,7 +60,9 @@ TEST(DecodeMetadata, SpaceUnitsNeverStopAnOutputAndWhatIsLeftOutIsReported) {
         EXPECT_TRUE(contains(d.out, "wrote")) << d.out;
         const bool warned = contains(d.err, "warning") && contains(d.err, "'nrrd:space units'");
         EXPECT_EQ(warned, !o.units_kept) << d.err;
-        if (o.any_kept) EXPECT_FALSE(contains(d.err, "'scanner'")) << d.err;
+        if (o.any_kept) {
+            EXPECT_FALSE(contains(d.err, "'scanner'")) << d.err;
+        }
         const Volume v = read_volume(path);
         ASSERT_EQ(v.data.size(), samples.size());
         EXPECT_TRUE(std::equal(samples.begin(), samples.end(), reinterpret_cast<const uint8_t*>(v.data.data())));

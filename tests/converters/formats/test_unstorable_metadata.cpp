@@ -40,7 +40,9 @@ TEST(UnstorableMetadata, WritersLeaveOutAndListWhatTheyCannotHold) {
         for (const auto& [k, val] : v.metadata) {
             const bool lost = std::find(c.lost.begin(), c.lost.end(), k) != c.lost.end();
             EXPECT_EQ(r.metadata.count(k), lost ? 0u : 1u) << "key '" << k << "'";
-            if (!lost && r.metadata.count(k)) EXPECT_EQ(r.metadata.at(k), val) << k;
+            if (!lost && r.metadata.count(k)) {
+                EXPECT_EQ(r.metadata.at(k), val) << k;
+            }
         }
     }
 }

@@ -249,7 +249,9 @@ void expect_integer_isosurface_loads_cleanly(TetMesh mesh, double isovalue, cons
         std::size_t boundary = 0;
         for (auto v : m.vertices()) EXPECT_TRUE(m.is_manifold(v)) << "vertex " << v.idx();
         for (auto e : m.edges()) boundary += m.is_boundary(e);
-        if (mesh.points.size() > 0 && name == "plateaus") EXPECT_EQ(boundary, 0u);
+        if (mesh.points.size() > 0 && name == "plateaus") {
+            EXPECT_EQ(boundary, 0u);
+        }
     }
     const std::string missing = test::gmsh_missing();
     if (!missing.empty()) {
