@@ -171,6 +171,10 @@ void run_isolated(const IsolatedTask& task, const std::function<void(IsolatedWri
         ::prctl(PR_SET_PDEATHSIG, SIGKILL);
         if (::getppid() != parent_pid) ::_exit(kReportedExit);
         ::signal(SIGPIPE, SIG_IGN);
+        // A crash in the library must end the child by its signal, so the parent
+        // can name it: handlers inherited from the parent (sanitizers', libFuzzer's)
+        // would turn it into an ordinary exit and, under libFuzzer, write a crash file.
+        for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
         int status = 0;
         try {
             IsolatedWriter w(fds[1]);
