@@ -1,5 +1,5 @@
 // MT builder: bottom-up decimation of the 5-tets-per-cell reference mesh by
-// half-edge collapses (shared/notes/mt.md §1-§4). Legality: box-feature rule,
+// half-edge collapses (docs/mt.md §2). Legality: box-feature rule,
 // strictly positive orientation of every new tet (exact int64), link condition
 // with a ghost vertex for the boundary (Dey, Edelsbrunner, Guha, Nekhayev,
 // "Topology preserving edge contraction", 1999). Error: every removed grid point is

@@ -1,5 +1,5 @@
 #pragma once
-// Compact serialization of the MT (shared/notes/mt.md §5, option C; docs/mt.md §5):
+// Compact serialization of the MT (docs/mt.md §5):
 // per grid point removed by the decimation, in raster order of that point w: the
 // survivor offset s - w, the node label, the error quantized upward to 16 bits,
 // the star size, and the split mask coded as a cut plus exceptions over the

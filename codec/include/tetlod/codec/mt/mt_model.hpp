@@ -4,7 +4,7 @@
 // analysis and a comparison". Built bottom-up from the 5-tets-per-cell reference
 // mesh by half-edge collapses (a grid point w merges into a neighbour s, so every
 // vertex stays a grid point with its exact value); read backwards, each collapse
-// is a vertex split. Design: shared/notes/mt.md, docs/mt.md.
+// is a vertex split. Design: docs/mt.md.
 //
 // History is recorded in node space (notes §4.2): the survivor of every collapse
 // gets a fresh node whose label is larger than the labels of its two children and
