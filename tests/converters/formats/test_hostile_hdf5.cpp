@@ -18,16 +18,9 @@
 namespace tetlod {
 namespace {
 
+using test::slurp;
+using test::spit;
 using test::tmp_dir;
-
-std::string slurp(const std::string& p) {
-    std::ifstream f(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-void spit(const std::string& p, const std::string& bytes) {
-    std::ofstream f(p, std::ios::binary | std::ios::trunc);
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
 
 struct Outcome {
     int ok = 0, errors = 0, crashes = 0, hangs = 0;
