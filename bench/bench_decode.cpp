@@ -16,7 +16,7 @@
 #include <regex>
 #include <string>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/converters/sample_volumes.hpp"
 
 using namespace tetlod;

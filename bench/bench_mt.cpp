@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "tetlod/codec/ht/ht_model.hpp"
-#include "tetlod/codec/mt/mt_codec.hpp"
-#include "tetlod/codec/mt/mt_model.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/codecs/mt/mt_codec.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/core/volume.hpp"
 
 using namespace tetlod;

@@ -10,7 +10,7 @@
 #include <string_view>
 
 #include "fuzz_split.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 

@@ -10,7 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "tetlod/codec/mt/mt_codec.hpp"
+#include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/format/container.hpp"
 
 using namespace tetlod;

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <span>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

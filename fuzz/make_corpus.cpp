@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/mt/mt_codec.hpp"
-#include "tetlod/codec/mt/mt_model.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_codec.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 

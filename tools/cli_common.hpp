@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "tetlod/codec/lod_query.hpp"
+#include "tetlod/models/lod_query.hpp"
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
 

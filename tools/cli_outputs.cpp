@@ -13,7 +13,7 @@
 #include <set>
 
 #include "cli_common.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/converters/medit_writer.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/core/error.hpp"

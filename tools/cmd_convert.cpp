@@ -12,8 +12,8 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/utf8.hpp"
 #include "tetlod/format/container.hpp"

@@ -1,7 +1,7 @@
 // tetlod decode: a .tlod container -> the original volume in any volume format,
 // bit-exact; or, with --error/--full (and the region flags of extract), the
 // volume as a level-of-detail mesh represents it: every grid point interpolated
-// in its tet (codec/mesh_resample.hpp), with the deviation from the original.
+// in its tet (analysis/mesh_resample.hpp), with the deviation from the original.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -15,11 +15,11 @@
 #include "cli_outputs.hpp"
 #include "command.hpp"
 #include "lod_model.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/ht/ht_model.hpp"
-#include "tetlod/codec/mesh_resample.hpp"
-#include "tetlod/codec/mt/mt_model.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/analysis/mesh_resample.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/core/error.hpp"
 

@@ -10,7 +10,7 @@
 #include "cli_outputs.hpp"
 #include "tetlod/core/output_policy.hpp"
 #include "command.hpp"
-#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/converters/raw_volume.hpp"
 #include "tetlod/converters/sample_volumes.hpp"

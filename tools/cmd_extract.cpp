@@ -11,9 +11,9 @@
 #include "cli_outputs.hpp"
 #include "extract_tlod.hpp"
 #include "lod_model.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/ht/ht_model.hpp"
-#include "tetlod/codec/mt/mt_model.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/core/error.hpp"
 

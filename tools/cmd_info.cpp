@@ -10,8 +10,8 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {

@@ -10,7 +10,7 @@
 #include "cli_common.hpp"
 #include "command.hpp"
 #include "lod_model.hpp"
-#include "tetlod/codec/isosurface.hpp"
+#include "tetlod/models/isosurface.hpp"
 #include "tetlod/converters/features.hpp"
 #include "tetlod/core/error.hpp"
 #if TETLOD_HAVE_OPENMESH

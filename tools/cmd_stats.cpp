@@ -11,7 +11,7 @@
 #include "command.hpp"
 #include "lod_model.hpp"
 #include "model_stats.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {

@@ -5,8 +5,8 @@
 #include <ostream>
 
 #include "cli_common.hpp"
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/core/error.hpp"
 

@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-#include "tetlod/codec/lod_query.hpp"
+#include "tetlod/models/lod_query.hpp"
 
 namespace tetlod::cli {
 

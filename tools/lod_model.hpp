@@ -8,7 +8,7 @@
 #include <optional>
 #include <string>
 
-#include "tetlod/codec/lod_query.hpp"
+#include "tetlod/models/lod_query.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/volume.hpp"
 

@@ -7,7 +7,7 @@
 
 #include "cli_common.hpp"
 #include "svg_plot.hpp"
-#include "tetlod/codec/isosurface.hpp"
+#include "tetlod/models/isosurface.hpp"
 #include "tetlod/core/atomic_file.hpp"
 
 namespace tetlod::cli {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "lod_model.hpp"
-#include "tetlod/codec/shape_quality.hpp"
+#include "tetlod/analysis/shape_quality.hpp"
 
 namespace tetlod::cli {
 

@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"

@@ -12,9 +12,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/atomic_file.hpp"
-#include "tetlod/codec/mt/mt_container.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tlod_test_util.hpp"

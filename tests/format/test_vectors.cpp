@@ -17,7 +17,7 @@
 #include <xxhash.h>
 #include <cmath>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/format/container.hpp"
 #include "tlod_test_util.hpp"

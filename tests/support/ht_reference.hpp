@@ -1,6 +1,6 @@
 #pragma once
 // A reference Hierarchy of Tetrahedra built by brute force from Maubach's ordered
-// bisection (docs/ht.md, "The hierarchy"), independent of codec/:
+// bisection (docs/ht.md, "The hierarchy"), independent of models/:
 //  * HtTet / ht_roots / ht_children: the tree itself, lazily;
 //  * walk_mesh: locates every tet of an extracted mesh in the tree (every output tet
 //    must be a node), and lists the split nodes seen on the way;

@@ -1,6 +1,6 @@
 #pragma once
 // Independent brute-force checker for extracted tetrahedral meshes. Written from
-// the definitions in docs/ht.md; shares no code with codec/. Everything
+// the definitions in docs/ht.md; shares no code with models/ or codecs/. Everything
 // geometric is exact integer arithmetic on grid coordinates (int64 / __int128):
 // no tolerance anywhere except for float-valued data in the bound check.
 //

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "tetlod/codec/ht/ht_codec.hpp"
-#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/format/metadata.hpp"
 

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "tetlod/codec/ht/ht_model.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/volume.hpp"
 

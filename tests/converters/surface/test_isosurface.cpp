@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "surface_test_util.hpp"
-#include "tetlod/codec/isosurface.hpp"
+#include "tetlod/models/isosurface.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod {

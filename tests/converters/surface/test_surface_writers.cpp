@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "surface_test_util.hpp"
-#include "tetlod/codec/isosurface.hpp"
+#include "tetlod/models/isosurface.hpp"
 #include "tetlod/converters/surface_writer.hpp"
 #include "tetlod/core/error.hpp"
 

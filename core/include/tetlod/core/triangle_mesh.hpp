@@ -1,6 +1,6 @@
 #pragma once
 // A triangle surface in world coordinates: the output of isosurface extraction
-// (codec/isosurface.hpp) and the input of the surface writers
+// (models/isosurface.hpp) and the input of the surface writers
 // (converters/surface). Lives in core, beside TetMesh, so writers need not depend
 // on the codec.
 #include <array>

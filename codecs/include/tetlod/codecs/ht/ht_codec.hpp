@@ -1,0 +1,118 @@
+#pragma once
+// The HT in a .tlod container (spec/tlod-format.md §6-§8): the field stored
+// losslessly as residuals of a coarse-to-fine prediction, per-diamond errors
+// quantized upward to a truncated float32 (so a stored bound is never below the
+// true one), both split into chunks by cycle (3 levels) and by spatial brick so
+// a coarse LOD reads a prefix of the file and a box reads few bricks.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/core/error.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/format/metadata.hpp"
+
+namespace tetlod {
+
+struct HtEncodeOptions {
+    int zstd_level = 19;
+    /// Bricks of cycle t span 2^(t+1+brick_log2) grid steps per axis (spec §6.2).
+    int brick_log2 = 4;
+    /// Mantissa bits kept by the error quantizer, 0..7 (spec §8): the stored
+    /// bound exceeds the true error by less than a factor 1 + 2^-m.
+    int error_mantissa_bits = 4;
+    /// Called with (chunks done, chunks total) from the calling thread.
+    std::function<void(std::size_t, std::size_t)> progress;
+};
+
+/// Spec §8: float32 error -> 16-bit code, rounding up (NaN and +inf give the
+/// +inf code; negative values and -0 give 0).
+uint16_t quantize_error(float error, int mantissa_bits);
+/// Spec §8: code -> float32 bound (exact). Precondition: code <= max_error_code(m).
+float dequantize_error(uint16_t code, int mantissa_bits);
+inline uint32_t max_error_code(int mantissa_bits) { return 0xFFu << mantissa_bits; }
+
+/// Appends METADATA and the HT sections of `model` to `writer` and sets the HT
+/// feature. `meta` describes the original (unpadded) volume.
+void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
+               const HtEncodeOptions& options = {});
+/// encode_ht + atomic write. Throws tetlod::Error.
+void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
+                        const HtEncodeOptions& options = {});
+
+/// One chunk of the HT data: the grid points of one cycle inside one brick.
+struct HtChunk {
+    int cycle = 0;            // t: points are multiples of 2^t, not all of 2^(t+1)
+    uint32_t brick = 0;       // linear brick index within the cycle
+    std::array<int64_t, 6> box{};  // inclusive x0,y0,z0,x1,y1,z1 of the brick (clipped to B)
+    uint64_t points = 0;      // grid points of the chunk (= field values)
+    uint64_t diamonds = 0;    // error codes (= points except in the corner cycle t = k)
+    std::size_t field_section = 0;
+    std::size_t error_section = 0;
+};
+
+/// What the HT sections say, validated against the METADATA (reads only the
+/// header, table, METADATA and HT_HEADER sections). Safe on untrusted input.
+struct HtLayout {
+    tlod::Metadata metadata;
+    HtDomain domain;
+    int brick_log2 = 0;
+    int error_mantissa_bits = 0;
+    /// HT_HEADER Residual_Coding: 1 = zigzag byte planes + zstd (format 1.x),
+    /// 2 = class-ordered range coding (format 2.x).
+    int residual_coding = 2;
+    std::vector<HtChunk> chunks;  // file order: cycle k first, then k-1, ..., 0
+};
+Expected<HtLayout> read_ht_layout(tlod::ContainerReader& reader);
+
+/// Which part of the hierarchy to decode.
+struct HtDecodeRequest {
+    /// Decode cycles >= finest_cycle only (0 = full resolution). Cycle t holds the
+    /// centres of diamonds of levels 3(k-1-t) .. 3(k-1-t)+2.
+    int finest_cycle = 0;
+    /// Decode only chunks needed for this inclusive index box (and their predictors).
+    std::optional<std::array<int64_t, 6>> box;
+    bool errors = true;
+};
+
+struct HtDecoded {
+    HtLayout layout;
+    /// On B (padded when layout.domain.padded). Points not decoded are 0.
+    Volume field;
+    /// Per grid point of B; points not decoded hold +inf, cube corners 0.
+    std::vector<float> errors;
+    uint64_t chunks_decoded = 0;
+};
+/// Decodes (part of) the HT. Safe on untrusted input: every section is checked
+/// (checksum, size, zstd frame, code ranges) before its content is used.
+Expected<HtDecoded> decode_ht(tlod::ContainerReader& reader, const HtDecodeRequest& request = {});
+
+struct HtLazyStats {
+    uint64_t chunks_total = 0;
+    uint64_t chunks_decoded = 0;
+    uint64_t bytes_read = 0;  // from the container, header and table included
+    int passes = 0;           // extraction passes (each after loading more chunks)
+};
+/// The LOD mesh of `query`, decoding only the chunks the refinement examines:
+/// starts from the three coarsest cycles, extracts, and loads every chunk
+/// holding a vertex of the mesh or the diamond of a tet the refinement stopped
+/// at (judged with an undecoded error), until there is none: the result equals
+/// the extraction from the fully decoded model. Safe on untrusted input.
+Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery& query,
+                                  HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr);
+
+/// The original volume, bit-exact (padding removed), with its metadata restored.
+Expected<Volume> decode_volume(tlod::ContainerReader& reader);
+
+/// Loads the whole HT of a .tlod file as a model ready for extraction (decodes
+/// every chunk; lazy loading comes later). Throws tetlod::Error naming the file.
+HtModel load_ht_model(const std::string& path);
+
+/// True when the file starts with the .tlod magic (cheap format sniffing).
+bool is_tlod_file(const std::string& path);
+
+}  // namespace tetlod

@@ -1,0 +1,40 @@
+#pragma once
+// Compact serialization of the MT (docs/mt.md §5):
+// per grid point removed by the decimation, in raster order of that point w: the
+// survivor offset s - w, the node label, the error quantized upward to 16 bits,
+// the star size, and the split mask coded as a cut plus exceptions over the
+// direction-ordered star. Streams are kept apart (structure of arrays) and the
+// whole payload is one zstd frame. The field may be included (raw samples) or
+// supplied by the caller on decode (e.g. from the container's field sections).
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "tetlod/models/mt/mt_model.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+inline constexpr uint16_t kMtCodecVersion = 1;
+
+struct MtEncodeOptions {
+    int zstd_level = 19;
+    /// Mantissa bits of the upward error quantizer (0..7, as the HT's, spec §8).
+    int error_mantissa_bits = 7;
+    /// Store the field samples too (otherwise decode_mt needs the field).
+    bool include_field = false;
+};
+
+/// Encodes the model. Deterministic: the same model gives the same bytes (single-
+/// threaded zstd at a fixed level). Errors are rounded up, so a decoded model may
+/// refine slightly more than the original but never violates a bound.
+std::vector<uint8_t> encode_mt(const MtModel& model, const MtEncodeOptions& options = {});
+
+/// Decodes bytes from encode_mt. Safe on untrusted input: every count is checked
+/// against the bytes that remain before allocating, never reads out of bounds,
+/// returns Truncated / BadMagic / UnsupportedVersion / CorruptData / TooLarge
+/// failures instead of throwing. `field` supplies the samples when the bytes do not
+/// include them (its dims and type must match the header); ignored otherwise.
+Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field = nullptr);
+
+}  // namespace tetlod

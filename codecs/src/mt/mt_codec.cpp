@@ -1,0 +1,265 @@
+// MT serialization (docs/mt.md §5). Layout, all little-endian:
+//   header (48 bytes): "TLMT", u16 version, u16 flags (bit 0: field included;
+//     others reserved, must be 0), u32 dims x,y,z, u8 value type, u8 mantissa bits,
+//     u16 reserved (0), u32 base tets, u32 updates, u64 raw payload size,
+//     u64 stored payload size
+//   payload: one zstd frame; raw = 7 streams, each u64 length + bytes:
+//     base (4 x u32 per tet), offsets (3 zigzag varints per update), labels
+//     (varint), errors (u16 codes), stars (varint), masks (per update: varint cut,
+//     varint exception count, varint gaps), field (raw samples or empty).
+// Updates appear in raster order of their inserted point w, which is every grid
+// point that is not a vertex of the base mesh.
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "tetlod/models/detail/mt_geometry.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_codec.hpp"
+#include "tetlod/format/container.hpp"
+
+namespace tetlod {
+
+namespace {
+
+constexpr size_t kHeaderSize = 48;
+constexpr int kStreams = 7;
+
+void put_le(std::vector<uint8_t>& o, uint64_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i) o.push_back(uint8_t(v >> (8 * i)));
+}
+void put_varint(std::vector<uint8_t>& o, uint64_t v) {
+    while (v >= 0x80) o.push_back(uint8_t(v | 0x80)), v >>= 7;
+    o.push_back(uint8_t(v));
+}
+uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
+int64_t unzigzag(uint64_t v) { return int64_t(v >> 1) ^ -int64_t(v & 1); }
+
+struct Reader {
+    const uint8_t* p;
+    const uint8_t* end;
+    bool ok = true;
+    size_t left() const { return size_t(end - p); }
+    uint64_t le(int bytes) {
+        if (left() < size_t(bytes)) return ok = false, 0;
+        uint64_t v = 0;
+        for (int i = 0; i < bytes; ++i) v |= uint64_t(p[i]) << (8 * i);
+        p += bytes;
+        return v;
+    }
+    uint64_t varint() {
+        uint64_t v = 0;
+        for (int shift = 0; shift < 64; shift += 7) {
+            if (p == end) return ok = false, 0;
+            const uint8_t b = *p++;
+            v |= uint64_t(b & 0x7F) << shift;
+            if (!(b & 0x80)) return v;
+        }
+        return ok = false, 0;
+    }
+};
+
+/// Cut c minimising exceptions: ones expected in [0, c), zeros in [c, d).
+void encode_mask(const MtModel& m, const MtUpdate& u, std::vector<uint8_t>& o) {
+    const uint32_t d = u.star;
+    uint32_t best_c = 0, ones_total = 0;
+    for (uint32_t i = 0; i < d; ++i) ones_total += m.mask_bit(u, i);
+    // exceptions(c) = zeros in [0,c) + ones in [c,d)
+    uint32_t zeros_before = 0, ones_before = 0, best_exc = ones_total;
+    for (uint32_t c = 1; c <= d; ++c) {
+        if (m.mask_bit(u, c - 1)) ++ones_before;
+        else ++zeros_before;
+        const uint32_t exc = zeros_before + (ones_total - ones_before);
+        if (exc < best_exc) best_exc = exc, best_c = c;
+    }
+    put_varint(o, best_c);
+    put_varint(o, best_exc);
+    uint32_t prev = 0;
+    for (uint32_t i = 0; i < d; ++i) {
+        const bool expect = i < best_c;
+        if (bool(m.mask_bit(u, i)) != expect) put_varint(o, i - prev), prev = i;
+    }
+}
+
+}  // namespace
+
+std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
+    const Dims& D = m.dims();
+    const mt::Grid g(D);
+    const int mb = std::clamp(opt.error_mantissa_bits, 0, 7);
+    std::vector<uint8_t> s[kStreams];
+    for (const auto& t : m.base_tets())
+        for (uint32_t v : t) put_le(s[0], v, 4);
+    std::vector<uint32_t> by_w(size_t(D.count()), mt::kNil);
+    for (size_t k = 0; k < m.updates().size(); ++k) by_w[m.updates()[k].w] = uint32_t(k);
+    for (uint32_t w = 0; w < by_w.size(); ++w) {
+        if (by_w[w] == mt::kNil) continue;
+        const MtUpdate& u = m.updates()[by_w[w]];
+        const mt::Pt pw = g.coord(w), ps = g.coord(u.s);
+        for (int a = 0; a < 3; ++a) put_varint(s[1], zigzag(int64_t(ps[a]) - pw[a]));
+        put_varint(s[2], u.label);
+        put_le(s[3], quantize_error(u.error, mb), 2);
+        put_varint(s[4], u.star);
+        encode_mask(m, u, s[5]);
+    }
+    if (opt.include_field) {
+        const auto* b = reinterpret_cast<const uint8_t*>(m.field().data.data());
+        s[6].assign(b, b + m.field().data.size());
+    }
+    std::vector<std::byte> raw;
+    for (auto& st : s) {
+        for (int i = 0; i < 8; ++i) raw.push_back(std::byte(uint8_t(uint64_t(st.size()) >> (8 * i))));
+        for (uint8_t c : st) raw.push_back(std::byte(c));
+    }
+    const std::vector<std::byte> z = tlod::zstd_compress(raw, opt.zstd_level);
+    std::vector<uint8_t> out;
+    out.reserve(kHeaderSize + z.size());
+    for (char c : {'T', 'L', 'M', 'T'}) out.push_back(uint8_t(c));  // (insert trips a GCC 12 false -Wstringop-overflow)
+    put_le(out, kMtCodecVersion, 2);
+    put_le(out, opt.include_field ? 1 : 0, 2);
+    put_le(out, uint64_t(D.x), 4), put_le(out, uint64_t(D.y), 4), put_le(out, uint64_t(D.z), 4);
+    put_le(out, uint8_t(m.field().type), 1);
+    put_le(out, uint64_t(mb), 1);
+    put_le(out, 0, 2);
+    put_le(out, m.base_tets().size(), 4);
+    put_le(out, m.updates().size(), 4);
+    put_le(out, raw.size(), 8);
+    put_le(out, z.size(), 8);
+    const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
+    out.insert(out.end(), zb, zb + z.size());
+    return out;
+}
+
+Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field) {
+    if (bytes.size() < kHeaderSize) return fail(ErrorCode::Truncated, "MT: header truncated");
+    if (std::memcmp(bytes.data(), "TLMT", 4) != 0) return fail(ErrorCode::BadMagic, "MT: bad magic");
+    Reader h{bytes.data() + 4, bytes.data() + kHeaderSize};
+    const uint64_t version = h.le(2), flags = h.le(2);
+    if (version != kMtCodecVersion)
+        return fail(ErrorCode::UnsupportedVersion, "MT: unsupported version " + std::to_string(version));
+    if (flags & ~uint64_t(1)) return fail(ErrorCode::CorruptData, "MT: reserved flag bits set");
+    Dims D{int64_t(h.le(4)), int64_t(h.le(4)), int64_t(h.le(4))};
+    const uint64_t type = h.le(1), mb = h.le(1), reserved = h.le(2);
+    const uint64_t nbase = h.le(4), nupd = h.le(4), raw_size = h.le(8), stored = h.le(8);
+    if (reserved != 0) return fail(ErrorCode::CorruptData, "MT: reserved header bytes not zero");
+    if (D.x < 2 || D.y < 2 || D.z < 2 || D.x > 4096 || D.y > 4096 || D.z > 4096 || D.count() >= (int64_t(1) << 31))
+        return fail(ErrorCode::TooLarge, "MT: unusable dims");
+    if (type < 1 || type > 8) return fail(ErrorCode::CorruptData, "MT: bad value type");
+    if (mb > 7) return fail(ErrorCode::CorruptData, "MT: bad mantissa bits");
+    const uint64_t n = uint64_t(D.count());
+    const ValueType vt = ValueType(type);
+    if (nupd >= n || nbase == 0 || nbase > 5 * n) return fail(ErrorCode::CorruptData, "MT: bad counts");
+    // Every grid point is a base vertex (at most 4 per base tet) or removed by an
+    // update: dims claiming more points than that are refused before the
+    // per-point tables are allocated.
+    if (n > nupd + 4 * nbase)
+        return fail(ErrorCode::CorruptData, "MT: " + std::to_string(n) + " grid points but only " +
+                                                std::to_string(nbase) + " base tets and " + std::to_string(nupd) +
+                                                " updates");
+    if (stored != bytes.size() - kHeaderSize)
+        return fail(stored > bytes.size() - kHeaderSize ? ErrorCode::Truncated : ErrorCode::CorruptData,
+                    "MT: payload size mismatch");
+    // The raw payload holds at least 16 bytes per base tet, 9 per update (3
+    // offset varints, a label, a 2-byte error code, a star size, a mask cut and
+    // exception count) and the field; at most a generous 64 per update.
+    const uint64_t field_bytes = (flags & 1) ? n * value_size(vt) : 0;
+    const uint64_t min_raw = 8 * kStreams + 16 * nbase + 9 * nupd + field_bytes;
+    const uint64_t max_raw = 8 * kStreams + 16 * nbase + 64 * nupd + field_bytes + (uint64_t(1) << 16);
+    if (raw_size > max_raw) return fail(ErrorCode::TooLarge, "MT: payload larger than its counts allow");
+    if (raw_size < min_raw)
+        return fail(ErrorCode::CorruptData, "MT: a payload of " + std::to_string(raw_size) +
+                                                " bytes cannot hold the header's counts (at least " +
+                                                std::to_string(min_raw) + " bytes)");
+    // zstd_decompress refuses a raw size the stored bytes cannot expand to and
+    // grows its output with the data, so the counts are now backed by bytes.
+    auto raw_r = tlod::zstd_decompress(
+        std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + kHeaderSize), stored), raw_size);
+    if (!raw_r) return fail(raw_r.failure().code, "MT: payload: " + raw_r.failure().message);
+    const std::vector<std::byte>& raw = raw_r.value();
+    Reader r{reinterpret_cast<const uint8_t*>(raw.data()), reinterpret_cast<const uint8_t*>(raw.data()) + raw.size()};
+    Reader st[kStreams];
+    for (auto& x : st) {
+        const uint64_t len = r.le(8);
+        if (!r.ok || len > r.left()) return fail(ErrorCode::CorruptData, "MT: stream length out of range");
+        x = Reader{r.p, r.p + len};
+        r.p += len;
+    }
+    if (r.left() != 0) return fail(ErrorCode::CorruptData, "MT: trailing bytes in the payload");
+    if (st[0].left() != 16 * nbase) return fail(ErrorCode::CorruptData, "MT: base stream size");
+    std::vector<std::array<uint32_t, 4>> base(nbase);
+    std::vector<uint8_t> is_base(n, 0);
+    for (auto& t : base)
+        for (auto& v : t) {
+            v = uint32_t(st[0].le(4));
+            if (v >= n) return fail(ErrorCode::CorruptData, "MT: base vertex out of range");
+            is_base[v] = 1;
+        }
+    uint64_t nonbase = 0;
+    for (uint8_t b : is_base) nonbase += !b;
+    if (nonbase != nupd) return fail(ErrorCode::CorruptData, "MT: update count differs from removed points");
+    if (st[3].left() != 2 * nupd) return fail(ErrorCode::CorruptData, "MT: error stream size");
+    const mt::Grid g(D);
+    std::vector<MtUpdate> ups;
+    ups.reserve(nupd);
+    std::vector<uint64_t> bits;
+    uint64_t nbits = 0;
+    const uint32_t max_code = max_error_code(int(mb));
+    for (uint32_t w = 0; w < n; ++w) {
+        if (is_base[w]) continue;
+        MtUpdate u;
+        u.w = w;
+        const mt::Pt pw = g.coord(w);
+        int64_t c[3];
+        for (int a = 0; a < 3; ++a) c[a] = pw[a] + unzigzag(st[1].varint());
+        if (!st[1].ok || c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= D.x || c[1] >= D.y || c[2] >= D.z)
+            return fail(ErrorCode::CorruptData, "MT: survivor outside the grid");
+        u.s = g.index(c[0], c[1], c[2]);
+        const uint64_t label = st[2].varint();
+        if (!st[2].ok || label == 0 || label > 0xFFFFFFFFu) return fail(ErrorCode::CorruptData, "MT: bad label");
+        u.label = uint32_t(label);
+        const uint64_t code = st[3].le(2);
+        if (code > max_code) return fail(ErrorCode::CorruptData, "MT: error code out of range");
+        u.error = dequantize_error(uint16_t(code), int(mb));
+        const uint64_t d = st[4].varint();
+        if (!st[4].ok || d == 0 || d > 8 * n) return fail(ErrorCode::CorruptData, "MT: bad star size");
+        u.star = uint32_t(d);
+        u.mask_offset = nbits;
+        // A valid model's stars sum to ~25 n; refuse pools beyond 64 n bits (8 n bytes).
+        if (nbits + d > 64 * n + 4096) return fail(ErrorCode::TooLarge, "MT: masks too large");
+        const uint64_t cut = st[5].varint(), exc = st[5].varint();
+        if (!st[5].ok || cut > d || exc > d) return fail(ErrorCode::CorruptData, "MT: bad mask header");
+        while (bits.size() * 64 < nbits + d) bits.push_back(0);
+        for (uint64_t i = 0; i < cut; ++i) bits[(nbits + i) >> 6] |= uint64_t(1) << ((nbits + i) & 63);
+        uint64_t pos = 0;
+        for (uint64_t e = 0; e < exc; ++e) {
+            const uint64_t gap = st[5].varint();
+            if (!st[5].ok || (e > 0 && gap == 0) || gap >= d || pos + gap >= d)
+                return fail(ErrorCode::CorruptData, "MT: bad mask exception");
+            pos += gap;
+            bits[(nbits + pos) >> 6] ^= uint64_t(1) << ((nbits + pos) & 63);
+        }
+        nbits += d;
+        ups.push_back(u);
+    }
+    for (int i = 1; i < 6; ++i)
+        if (st[i].left() != 0) return fail(ErrorCode::CorruptData, "MT: trailing bytes in a stream");
+    Volume vol;
+    if (flags & 1) {
+        if (st[6].left() != field_bytes) return fail(ErrorCode::CorruptData, "MT: field stream size");
+        vol = Volume::allocate(D, vt);
+        std::memcpy(vol.data.data(), st[6].p, field_bytes);
+    } else {
+        if (st[6].left() != 0) return fail(ErrorCode::CorruptData, "MT: unexpected field stream");
+        if (!field) return fail(ErrorCode::NotFound, "MT: field not included and not supplied");
+        if (!(field->dims == D) || field->type != vt)
+            return fail(ErrorCode::CorruptData, "MT: supplied field does not match the header");
+        vol = *field;
+    }
+    try {
+        return MtModel::from_parts(std::move(vol), std::move(base), std::move(ups), std::move(bits));
+    } catch (const Error& e) {
+        return fail(e.code(), e.what());
+    }
+}
+
+}  // namespace tetlod

@@ -1,0 +1,136 @@
+#pragma once
+// The edge-based Multi-Tessellation (MT) of a scalar volume: the second model of
+// Danovaro, De Floriani, Lee, Samet, "Multiresolution tetrahedral meshes: an
+// analysis and a comparison". Built bottom-up from the 5-tets-per-cell reference
+// mesh by half-edge collapses (a grid point w merges into a neighbour s, so every
+// vertex stays a grid point with its exact value); read backwards, each collapse
+// is a vertex split. Design: docs/mt.md.
+//
+// History is recorded in node space (notes §4.2): the survivor of every collapse
+// gets a fresh node whose label is larger than the labels of its two children and
+// of every vertex of its link at creation. Then a split of node v is legal in any
+// extracted mesh exactly when every current neighbour has a smaller label (notes
+// §4.3), and the tets it removes are its star, ordered canonically (mt_order) and
+// partitioned by a bitmask (notes §4.5). No tet lists are stored.
+//
+// Errors: a tet's error is max |f(p) - L_T(p)| over the grid points p of the
+// closed tet. An update's error is the maximum over the tets of its creation star,
+// then made monotone up the forest and rounded up to float. The creator of a tet
+// (its vertex of largest label) carries a bound on the tet's error, so every query
+// bound holds at every grid point.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "tetlod/models/lod_query.hpp"
+#include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/volume.hpp"
+
+namespace tetlod {
+
+struct MtBuildOptions {
+    /// Stop decimating once the cheapest collapse would cause an error above this
+    /// (field units). +inf: decimate as far as legality allows.
+    double max_error = std::numeric_limits<double>::infinity();
+    /// Refuse collapses whose new tets have a circumradius/shortest-edge ratio above
+    /// this (physical coordinates). 0: no cap (quality is then only a tie-breaker).
+    double max_shape_ratio = 0.0;
+    /// Keep the explicit tet history (node-space tets removed/created per update),
+    /// for the test oracle only: ~400 bytes per grid point.
+    bool record_history = false;
+    /// Worker threads (0 = TBB default). The build is deterministic for any value.
+    int threads = 0;
+};
+
+/// One vertex split (the inverse of collapse w -> s), in node space.
+struct MtUpdate {
+    uint32_t w = 0;         // grid index of the point the split inserts
+    uint32_t s = 0;         // grid index of the survivor (the split node sits here)
+    uint32_t label = 0;     // node label, >= 1 (leaves are 0)
+    float error = 0.0f;     // conservative error bound of the node's creation star
+    uint32_t star = 0;      // tets around the node at creation (= bits of its mask)
+    uint64_t mask_offset = 0;  // first bit of its mask in MtModel::mask_bits()
+};
+
+/// Explicit node-space history (tests only). Node ids: grid index for leaves,
+/// n + k for the survivor node of collapse k.
+struct MtHistory {
+    using Tet = std::array<uint32_t, 4>;  // node ids, as oriented in the mesh
+    std::vector<std::vector<Tet>> before;  // per collapse: star(w) U star(s) (the split creates these)
+    std::vector<std::vector<Tet>> after;   // per collapse: new star(s) (the split removes these)
+    std::vector<Tet> base;                 // final mesh in node ids
+    std::vector<uint32_t> update_of_node;  // (n + k) -> k, for convenience: size = collapses
+};
+
+struct MtExtractStats {
+    double max_error = 0.0;      // largest bound among output tets
+    uint64_t splits = 0;         // vertex splits performed
+    uint64_t forced_splits = 0;  // of which forced by a blocked split
+    uint64_t visited_tets = 0;
+    uint64_t tets_removed = 0, tets_inserted = 0;  // by the splits
+};
+
+class MtModel {
+public:
+    /// Builds the model from the volume (moved in). Every axis needs >= 2 samples.
+    /// Throws tetlod::Error(InvalidArgument/TooLarge) on unusable dims.
+    static MtModel build(Volume volume, const MtBuildOptions& options = {});
+
+    /// Reassembles a model from stored parts (decoders). `base_tets` hold grid indices;
+    /// `updates` in any order whose labels increase along every survivor's list.
+    /// Checks indices, counts, labels and masks structurally and throws
+    /// tetlod::Error(CorruptData) when they are inconsistent; deeper inconsistencies
+    /// are caught during extraction (which then throws CorruptData, never crashes).
+    static MtModel from_parts(Volume field, std::vector<std::array<uint32_t, 4>> base_tets,
+                              std::vector<MtUpdate> updates, std::vector<uint64_t> mask_bits);
+
+    const Volume& field() const { return field_; }
+    const Dims& dims() const { return field_.dims; }
+    /// The coarsest mesh, grid indices, positively oriented.
+    const std::vector<std::array<uint32_t, 4>>& base_tets() const { return base_; }
+    /// Updates in creation (collapse) order after build; in decode order otherwise.
+    const std::vector<MtUpdate>& updates() const { return updates_; }
+    const std::vector<uint64_t>& mask_bits() const { return mask_bits_; }
+    bool mask_bit(const MtUpdate& u, uint32_t i) const {
+        const uint64_t b = u.mask_offset + i;
+        return (mask_bits_[b >> 6] >> (b & 63)) & 1u;
+    }
+    uint32_t max_label() const { return max_label_; }
+    /// Only when built with record_history.
+    const MtHistory* history() const { return history_.empty() ? nullptr : &history_.front(); }
+
+    /// Selective refinement: the coarsest mesh of the MT (the minimal closed set of
+    /// splits) in which every tet meets its bound. Conforming, covers the data box.
+    /// TetMesh::level = max_label() - label of the tet's creator, clamped to 255
+    /// (0 = created by the coarsest split); TetMesh::error = the creator's bound
+    /// (0 for reference tets). Throws tetlod::Error(InvalidArgument) on a bad query,
+    /// CorruptData when a decoded model turns out inconsistent.
+    TetMesh extract(const LodQuery& query, MtExtractStats* stats = nullptr) const;
+
+    std::array<double, 2> value_range() const { return range_; }
+
+    /// Per survivor grid point, its updates sorted by label (CSR): rebuilt on load.
+    std::span<const uint32_t> updates_at(uint32_t p) const {
+        return {csr_items_.data() + csr_start_[p], csr_items_.data() + csr_start_[p + 1]};
+    }
+
+private:
+    void finalize();  // CSR, max label, range; validates
+
+    Volume field_;
+    std::vector<std::array<uint32_t, 4>> base_;
+    std::vector<MtUpdate> updates_;
+    std::vector<uint64_t> mask_bits_;
+    std::vector<uint32_t> csr_start_, csr_items_;
+    std::vector<uint32_t> removed_by_;  // per grid point: update index that inserts it, or ~0
+    uint32_t max_label_ = 0;
+    std::array<double, 2> range_{0, 0};
+    std::vector<MtHistory> history_;  // 0 or 1 element
+
+    friend struct MtRefiner;
+    friend struct MtBuilder;
+};
+
+}  // namespace tetlod

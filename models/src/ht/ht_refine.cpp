@@ -1,0 +1,437 @@
+// Selective refinement on the HT (shared notes ht.md §5-6).
+//
+// Phase 1 (split set): push every tet that violates its bound, starting from the
+// roots; popping a tet forces its diamond split, first forcing the diamond's
+// parents (a diamond's tets exist only once all its parents are split), then
+// pushes the violating children of the diamond's tets. Every split is forced,
+// so the result is the unique coarsest conforming mesh that honours the query.
+// Phase 2 (emit): walk the bisection tree from the 6 roots with Maubach's
+// ordered tets; a tet whose diamond is split recurses, any other is output.
+//
+// Data box B = [0,bx]x[0,by]x[0,bz] inside the cube [0,L]^3: tets outside B are
+// never output nor split for their own sake; tets crossing B's far faces always
+// violate. Diamonds centred outside B therefore never need an error (all their
+// tets cross or lie outside); their split marks live in a small hash set.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <unordered_set>
+#include <vector>
+
+#include "tetlod/models/detail/ht_geometry.hpp"
+#include "tet_box.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+namespace {
+
+using ht::BoxRelation;
+using ht::DiamondInfo;
+using ht::Pt;
+using ht::Tet;
+
+/// A tet waiting in the violation stack: vertices with the spine first.
+struct PendingTet {
+    Tet v;
+    uint8_t level;
+};
+
+// The emit walk is cut into subtrees at this level (<= 6 * 2^12 subtrees).
+constexpr int kEmitCutLevel = 12;
+// Below this many split diamonds the mesh is small: emit on the calling thread.
+constexpr uint64_t kParallelEmitMinSplits = 20000;
+
+uint64_t pack(const Pt& p) {
+    return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
+}
+
+class Refiner {
+public:
+    Refiner(const HtModel& model, const LodQuery& q)
+        : dom_(model.domain()),
+          field_(model.field()),
+          err_(model.diamond_errors()),
+          q_(q),
+          X_(model.field().dims.x),
+          XY_(model.field().dims.x * model.field().dims.y),
+          n_(model.field().count()) {
+        split_.assign(static_cast<std::size_t>((n_ + 63) / 64), 0);
+        vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
+        eps_in_ = q.full ? -1.0 : q.error_in;
+        eps_out_ = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
+        has_region_ = q.has_region() && !q.full;
+        eps_min_ = std::min(eps_in_, eps_out_);
+        eps_max_ = std::max(eps_in_, eps_out_);
+        if (q.box) {
+            const auto& b = *q.box;
+            box_ = ht::IBox{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+        }
+    }
+
+    TetMesh run(HtExtractStats* stats) {
+        mesh_.geometry.spacing = field_.spacing;
+        mesh_.geometry.origin = field_.origin;
+        mesh_.field_name = field_.field_name;
+        // Cube corners inside B are vertices of every mesh.
+        for (int m = 0; m < 8; ++m) {
+            Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};
+            if (dom_.in_box(c[0], c[1], c[2])) add_vertex(c);
+        }
+        ht::MTet roots[6];
+        ht::maubach_roots(dom_.L, roots);
+        for (const auto& r : roots) {
+            PendingTet p{spine_first(r.v, r.tag), 0};
+            if (!ok(p)) pending_.push_back(ht::midpoint(p.v[0], p.v[1]));
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        while (!pending_.empty()) {
+            const Pt c = pending_.back();
+            pending_.pop_back();
+            force(c);
+        }
+        const auto t1 = std::chrono::steady_clock::now();
+        emit_all(roots);
+        fill_values();
+        const auto t2 = std::chrono::steady_clock::now();
+        if (stats) {
+            stats->refine_seconds = std::chrono::duration<double>(t1 - t0).count();
+            stats->emit_seconds = std::chrono::duration<double>(t2 - t1).count();
+            stats->max_error = max_error_;
+            stats->split_diamonds = split_count_;
+            stats->visited_tets = visited_;
+        }
+        return std::move(mesh_);
+    }
+
+private:
+    static Tet spine_first(const Tet& v, int tag) {
+        Tet t{v[0], v[tag], {}, {}};
+        int n = 2;
+        for (int i = 1; i < 4; ++i)
+            if (i != tag) t[n++] = v[i];
+        return t;
+    }
+
+    int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
+    bool in_box(const Pt& p) const { return dom_.in_box(p[0], p[1], p[2]); }
+
+    bool is_split(const Pt& c) const {
+        if (in_box(c)) {
+            const int64_t i = index(c);
+            return (split_[i >> 6] >> (i & 63)) & 1;
+        }
+        return outside_split_.count(pack(c)) != 0;
+    }
+
+    void add_vertex(const Pt& p) {
+        const int64_t i = index(p);
+        vertex_id_[i] = uint32_t(mesh_.points.size());
+        mesh_.points.push_back(p);
+    }
+
+    /// Vertex values, read once all vertices are known (one type dispatch).
+    void fill_values() {
+        mesh_.values.resize(mesh_.points.size());
+        dispatch_value_type(field_.type, [&](auto tag) {
+            using T = decltype(tag);
+            const T* f = field_.as<T>();
+            for (std::size_t v = 0; v < mesh_.points.size(); ++v)
+                mesh_.values[v] = double(f[index(mesh_.points[v])]);
+        });
+    }
+
+    double vertex_value(const Pt& p) const { return field_.value(index(p)); }
+
+    bool in_region(const PendingTet& t, double err) const {
+        if (q_.box && !ht::tet_meets_box(t.v, *box_)) return false;
+        if (!q_.isovalues.empty()) {
+            double lo = vertex_value(t.v[0]), hi = lo;
+            for (int i = 1; i < 4; ++i) {
+                const double f = vertex_value(t.v[i]);
+                lo = std::min(lo, f), hi = std::max(hi, f);
+            }
+            // Every grid point p of the tet has |f(p) - L_T(p)| <= err and L_T lies
+            // between the vertex values, so f over the tet lies in [lo-err, hi+err].
+            lo -= err, hi += err;
+            bool hit = false;
+            for (double v : q_.isovalues) hit = hit || (lo <= v && v <= hi);
+            if (!hit) return false;
+        }
+        return true;
+    }
+
+    /// Does the tet satisfy its bound (or need no split for its own sake)?
+    bool ok(const PendingTet& t) const {
+        switch (ht::classify_against_data_box(t.v, dom_.box_max)) {
+            case BoxRelation::Outside: return true;
+            case BoxRelation::Crossing: return false;
+            case BoxRelation::Inside: break;
+        }
+        if (t.level >= dom_.max_level()) return true;
+        const double err = err_[index(ht::midpoint(t.v[0], t.v[1]))];
+        if (err <= std::min(eps_in_, eps_out_)) return true;  // no region test needed
+        if (!q_.has_region()) return err <= eps_in_;
+        return err <= (in_region(t, err) ? eps_in_ : eps_out_);
+    }
+
+    void force(const Pt& start) {
+        if (is_split(start)) return;
+        stack_.clear();
+        stack_.push_back(start);
+        while (!stack_.empty()) {
+            const Pt c = stack_.back();
+            if (is_split(c)) {
+                stack_.pop_back();
+                continue;
+            }
+            const DiamondInfo d = ht::classify_centre(c, dom_.k);
+            Pt parents[4];
+            const int np = ht::diamond_parents(c, d, dom_.L, parents);
+            bool ready = true;
+            for (int i = 0; i < np; ++i)
+                if (!is_split(parents[i])) {
+                    stack_.push_back(parents[i]);
+                    ready = false;
+                }
+            if (!ready) continue;
+            stack_.pop_back();
+            // Interior diamond: its children's errors are read next; start those
+            // (scattered) loads before the bookkeeping of the split.
+            const auto& m = dom_.box_max;
+            const bool interior = c[0] - d.h >= 0 && c[1] - d.h >= 0 && c[2] - d.h >= 0 &&
+                                  c[0] + d.h <= m[0] && c[1] + d.h <= m[1] && c[2] + d.h <= m[2];
+            Pt ch[8];
+            int nch = 0;
+            if (interior && d.level + 1 < dom_.max_level()) {
+                nch = ht::diamond_children(c, d, dom_.L, ch);
+                for (int i = 0; i < nch; ++i) __builtin_prefetch(&err_[index(ch[i])]);
+            }
+            mark_split(c);
+            if (!interior || !enqueue_children_fast(ch, nch)) enqueue_children(c, d);
+        }
+    }
+
+    /// Interior diamonds (all tets, hence all children tets, inside B): the
+    /// children tets of the diamond belong to its child diamonds, so under a
+    /// bound that does not depend on the tet, a child diamond must split exactly
+    /// when its error exceeds the bound. `ch` holds the child diamonds (none when
+    /// they are unit tets). Returns false to ask for the per-tet path: a child
+    /// whose verdict depends on the region test.
+    bool enqueue_children_fast(const Pt ch[8], int n) {
+        // n == 0 also when the children are unit tets (always ok)
+        int pushed = 0;
+        Pt todo[8];
+        for (int i = 0; i < n; ++i) {
+            const float e = err_[index(ch[i])];
+            if (e <= eps_min_) continue;
+            if (has_region_ && e <= eps_max_) return false;
+            todo[pushed++] = ch[i];
+        }
+        for (int i = 0; i < pushed; ++i)
+            if (!is_split(todo[i])) pending_.push_back(todo[i]);
+        return true;
+    }
+
+    void enqueue_children(const Pt& c, const DiamondInfo& d) {
+        Tet tets[8];
+        const int nt = ht::diamond_tets(c, d, dom_.L, tets);
+        for (int i = 0; i < nt; ++i) {
+            if (ht::classify_against_data_box(tets[i], dom_.box_max) == BoxRelation::Outside)
+                continue;
+            const Tet& t = tets[i];
+            // children: replace one spine end by the centre; respine each
+            for (int side = 0; side < 2; ++side) {
+                PendingTet ch;
+                ch.level = uint8_t(d.level + 1);
+                Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
+                ch.v = respine(v);
+                if (!ok(ch)) pending_.push_back(ht::midpoint(ch.v[0], ch.v[1]));
+            }
+        }
+    }
+
+    /// Puts the longest edge first (it is unique in the HT).
+    static Tet respine(const Tet& v) {
+        static constexpr int kE[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2},
+                                         {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
+        int best = 0;
+        int64_t bl = -1;
+        for (int e = 0; e < 6; ++e) {
+            const int64_t l = ht::dist2(v[kE[e][0]], v[kE[e][1]]);
+            if (l > bl) bl = l, best = e;
+        }
+        return Tet{v[kE[best][0]], v[kE[best][1]], v[kE[best][2]], v[kE[best][3]]};
+    }
+
+    void mark_split(const Pt& c) {
+        ++split_count_;
+        if (in_box(c)) {
+            const int64_t i = index(c);
+            split_[i >> 6] |= uint64_t{1} << (i & 63);
+            add_vertex(c);
+        } else {
+            outside_split_.insert(pack(c));
+        }
+    }
+
+    /// Output of one stretch of the bisection tree.
+    struct EmitBuffer {
+        std::vector<std::array<uint32_t, 4>> tets;
+        std::vector<uint8_t> level;
+        std::vector<float> error;
+        uint64_t visited = 0;
+        double max_error = 0;
+    };
+    /// A subtree root (or a leaf) of the tree walk, in depth-first order.
+    struct EmitItem {
+        ht::MTet t;
+        bool inside, positive;
+    };
+
+    /// Phase 2. The walk is cut at a fixed depth into subtrees, emitted in
+    /// parallel into per-chunk buffers and concatenated in depth-first order, so
+    /// the mesh is the same whatever the number of threads.
+    void emit_all(const ht::MTet roots[6]) {
+        std::vector<EmitItem> items;
+        const int cut = std::min(dom_.max_level(), kEmitCutLevel);
+        for (int r = 0; r < 6; ++r)
+            collect(roots[r], false, ht::orient(roots[r].v[0], roots[r].v[1], roots[r].v[2],
+                                                roots[r].v[3]) > 0,
+                    cut, items);
+        const std::size_t chunks = std::min<std::size_t>(items.size(), 256);
+        std::vector<EmitBuffer> out(std::max<std::size_t>(chunks, 1));
+        auto run_chunk = [&](std::size_t k) {
+            const std::size_t b = items.size() * k / chunks, e = items.size() * (k + 1) / chunks;
+            for (std::size_t i = b; i < e; ++i)
+                emit(items[i].t, items[i].inside, items[i].positive, out[k]);
+        };
+        if (chunks > 1 && split_count_ > kParallelEmitMinSplits)
+            tbb::parallel_for(std::size_t(0), chunks, run_chunk);
+        else
+            for (std::size_t k = 0; k < chunks; ++k) run_chunk(k);
+        std::size_t total = 0;
+        for (const auto& o : out) total += o.tets.size();
+        mesh_.tets.reserve(total);
+        mesh_.level.reserve(total);
+        mesh_.error.reserve(total);
+        for (const auto& o : out) {
+            mesh_.tets.insert(mesh_.tets.end(), o.tets.begin(), o.tets.end());
+            mesh_.level.insert(mesh_.level.end(), o.level.begin(), o.level.end());
+            mesh_.error.insert(mesh_.error.end(), o.error.begin(), o.error.end());
+            visited_ += o.visited;
+            max_error_ = std::max(max_error_, o.max_error);
+        }
+        visited_ += items.size();
+    }
+
+    /// Walks down to the cut level, recording subtree roots and leaves above it.
+    void collect(const ht::MTet& t, bool inside, bool positive, int cut,
+                 std::vector<EmitItem>& items) const {
+        if (t.level >= cut) {
+            items.push_back({t, inside, positive});
+            return;
+        }
+        bool refine = false;
+        if (!inside) {
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) return;
+            refine = rel == BoxRelation::Crossing;
+            inside = !refine;
+        }
+        if (!refine) {
+            const int64_t centre = index(ht::maubach_centre(t));
+            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
+        }
+        if (!refine) {
+            items.push_back({t, inside, positive});  // a leaf: emit() outputs it
+            return;
+        }
+        ht::MTet c1, c2;
+        ht::maubach_bisect(t, c1, c2);
+        collect(c1, inside, positive, cut, items);
+        collect(c2, inside, t.tag == 2 ? positive : !positive, cut, items);
+    }
+
+    /// `inside`: the tet is known to lie inside B (then so do its descendants).
+    /// `positive`: its vertex order is positively oriented. Maubach's children
+    /// keep the parent's orientation (first child) or flip it when the tag is 3
+    /// or 1 (second child), so no determinant is needed per tet.
+    void emit(const ht::MTet& t, bool inside, bool positive, EmitBuffer& out) const {
+        ++out.visited;
+        bool refine = false;
+        if (!inside) {
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) return;
+            refine = rel == BoxRelation::Crossing;
+            inside = !refine;
+        }
+        int64_t centre = -1;
+        if (!refine && t.level < dom_.max_level()) {
+            centre = index(ht::maubach_centre(t));
+            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
+        }
+        if (!refine) {
+            output(t, positive, centre < 0 ? 0.0f : err_[centre], out);  // unit tets: no error
+            return;
+        }
+        ht::MTet c1, c2;
+        ht::maubach_bisect(t, c1, c2);
+        emit(c1, inside, positive, out);
+        emit(c2, inside, t.tag == 2 ? positive : !positive, out);
+    }
+
+    void output(const ht::MTet& t, bool positive, float err, EmitBuffer& out) const {
+        std::array<uint32_t, 4> ids;
+        for (int i = 0; i < 4; ++i) ids[i] = vertex_id_[index(t.v[i])];
+        if (!positive) std::swap(ids[2], ids[3]);
+        out.tets.push_back(ids);
+        out.level.push_back(t.level);
+        out.error.push_back(err);
+        out.max_error = std::max(out.max_error, double(err));
+    }
+
+    const HtDomain& dom_;
+    const Volume& field_;
+    const std::vector<float>& err_;
+    const LodQuery& q_;
+    const int64_t X_, XY_, n_;
+    double eps_in_ = 0, eps_out_ = 0, eps_min_ = 0, eps_max_ = 0;
+    bool has_region_ = false;
+    std::optional<ht::IBox> box_;
+
+    std::vector<uint64_t> split_;
+    std::unordered_set<uint64_t> outside_split_;
+    std::unique_ptr<uint32_t[]> vertex_id_;  // valid only at vertices (split centres, corners)
+    std::vector<Pt> pending_;  // diamonds to force
+    std::vector<Pt> stack_;
+    TetMesh mesh_;
+    double max_error_ = 0;
+    uint64_t split_count_ = 0, visited_ = 0;
+};
+
+}  // namespace
+
+TetMesh HtModel::extract(const LodQuery& query, HtExtractStats* stats) const {
+    if (query.box) {
+        const auto& b = *query.box;
+        for (int a = 0; a < 3; ++a)
+            if (b[a] > b[a + 3])
+                throw Error(ErrorCode::InvalidArgument,
+                            "query box: lower corner exceeds the upper corner on axis " +
+                                std::string(1, "xyz"[a]));
+    }
+    for (double v : query.isovalues)
+        if (!std::isfinite(v))
+            throw Error(ErrorCode::InvalidArgument, "isovalue must be finite");
+    if (std::isnan(query.error_in) || std::isnan(query.error_out))
+        throw Error(ErrorCode::InvalidArgument, "error bound is NaN");
+    Refiner r(*this, query);
+    return r.run(stats);
+}
+
+}  // namespace tetlod

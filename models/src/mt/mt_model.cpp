@@ -1,0 +1,95 @@
+// MtModel: assembly and structural validation of stored parts, and the
+// per-survivor update lists (CSR by label) that extraction needs.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "tetlod/models/detail/mt_geometry.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+namespace {
+[[noreturn]] void corrupt(const std::string& what) {
+    throw Error(ErrorCode::CorruptData, "MT model: " + what);
+}
+}  // namespace
+
+MtModel MtModel::from_parts(Volume field, std::vector<std::array<uint32_t, 4>> base_tets,
+                            std::vector<MtUpdate> updates, std::vector<uint64_t> mask_bits) {
+    validate_dims(field.dims, "MT field");
+    if (field.dims.x < 2 || field.dims.y < 2 || field.dims.z < 2 || field.count() >= (int64_t(1) << 31) ||
+        field.dims.x > 4096 || field.dims.y > 4096 || field.dims.z > 4096)
+        corrupt("unusable dims");
+    if (field.data.size() != size_t(field.count()) * value_size(field.type)) corrupt("field size");
+    MtModel m;
+    m.field_ = std::move(field);
+    m.base_ = std::move(base_tets);
+    m.updates_ = std::move(updates);
+    m.mask_bits_ = std::move(mask_bits);
+    m.finalize();
+    return m;
+}
+
+void MtModel::finalize() {
+    const uint64_t n = uint64_t(field_.count());
+    const mt::Grid g(field_.dims);
+    if (base_.empty()) corrupt("empty base mesh");
+    if (base_.size() > 5 * n) corrupt("base mesh larger than the reference mesh");
+    std::vector<uint8_t> is_base(n, 0);
+    for (const auto& t : base_) {
+        for (uint32_t v : t)
+            if (v >= n) corrupt("base vertex out of range");
+        if (mt::orient(g.coord(t[0]), g.coord(t[1]), g.coord(t[2]), g.coord(t[3])) <= 0)
+            corrupt("base tet not positively oriented");
+        for (uint32_t v : t) is_base[v] = 1;
+    }
+    removed_by_.assign(n, mt::kNil);
+    std::vector<uint32_t> count(n + 1, 0);
+    const uint64_t total_bits = uint64_t(mask_bits_.size()) * 64;
+    max_label_ = 0;
+    for (size_t k = 0; k < updates_.size(); ++k) {
+        const MtUpdate& u = updates_[k];
+        if (u.w >= n || u.s >= n || u.w == u.s) corrupt("update vertex out of range");
+        if (u.label == 0) corrupt("update label 0");
+        if (!(u.error >= 0.0f)) corrupt("negative or NaN error");
+        if (u.star < 1 || u.star > base_.size() + 5 * n) corrupt("star size out of range");
+        if (u.mask_offset > total_bits || u.star > total_bits - u.mask_offset) corrupt("mask out of range");
+        if (removed_by_[u.w] != mt::kNil) corrupt("grid point inserted twice");
+        if (is_base[u.w]) corrupt("base vertex inserted by an update");
+        removed_by_[u.w] = uint32_t(k);
+        ++count[u.s];
+        max_label_ = std::max(max_label_, u.label);
+    }
+    uint64_t covered = 0;
+    for (uint64_t p = 0; p < n; ++p) covered += (is_base[p] || removed_by_[p] != mt::kNil) ? 1 : 0;
+    if (covered != n) corrupt("some grid points are neither base vertices nor inserted");
+    csr_start_.assign(n + 1, 0);
+    for (uint64_t p = 0; p < n; ++p) csr_start_[p + 1] = csr_start_[p] + count[p];
+    csr_items_.assign(updates_.size(), 0);
+    std::vector<uint32_t> fill(csr_start_.begin(), csr_start_.end() - 1);
+    for (size_t k = 0; k < updates_.size(); ++k) csr_items_[fill[updates_[k].s]++] = uint32_t(k);
+    for (uint64_t p = 0; p < n; ++p) {
+        auto b = csr_items_.begin() + csr_start_[p], e = csr_items_.begin() + csr_start_[p + 1];
+        std::sort(b, e, [&](uint32_t a, uint32_t c) { return updates_[a].label < updates_[c].label; });
+        for (auto it = b; it != e; ++it) {
+            if (it + 1 != e && updates_[*it].label >= updates_[*(it + 1)].label)
+                corrupt("labels do not increase along a survivor");
+            if (it + 1 != e && updates_[*it].error > updates_[*(it + 1)].error)
+                corrupt("errors not monotone along a survivor");
+        }
+    }
+    // The node an update inserts at w must be younger than the update.
+    for (size_t k = 0; k < updates_.size(); ++k) {
+        const uint32_t w = updates_[k].w;
+        if (csr_start_[w + 1] > csr_start_[w]) {
+            const MtUpdate& last = updates_[csr_items_[csr_start_[w + 1] - 1]];
+            if (last.label >= updates_[k].label) corrupt("child label not below its parent");
+            if (last.error > updates_[k].error) corrupt("errors not monotone up the forest");
+        }
+    }
+    range_ = field_.range();
+}
+
+}  // namespace tetlod
