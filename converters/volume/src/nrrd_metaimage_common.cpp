@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <string_view>
 
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/regular_file.hpp"
@@ -421,6 +422,11 @@ void check_geometry(const Vec3& spacing, const Vec3& origin, const std::string& 
 
 std::string format_file_pattern(const std::string& pattern, int64_t n, const std::string& what) {
     // Exactly one conversion: %[flags][width]d (also i, u, x, X, o); "%%" is a literal %.
+    // A NUL byte would end the printf format early (and std::strchr finds the
+    // terminator of its set, so it would pass as a flag): no file name has one.
+    if (pattern.find('\0') != std::string::npos)
+        throw Error(ErrorCode::CorruptData, what + ": data file pattern contains a NUL byte");
+    auto one_of = [](char c, std::string_view set) { return set.find(c) != std::string_view::npos; };
     std::string out;
     int conversions = 0;
     for (std::size_t i = 0; i < pattern.size(); ++i) {
@@ -435,8 +441,8 @@ std::string format_file_pattern(const std::string& pattern, int64_t n, const std
             continue;
         }
         std::size_t j = i + 1;
-        while (j < pattern.size() && std::strchr("-+ #0123456789", pattern[j])) ++j;
-        if (j >= pattern.size() || !std::strchr("diuxXo", pattern[j]) || j - i > 8)
+        while (j < pattern.size() && one_of(pattern[j], "-+ #0123456789")) ++j;
+        if (j >= pattern.size() || !one_of(pattern[j], "diuxXo") || j - i > 8)
             throw Error(ErrorCode::CorruptData,
                         what + ": data file pattern '" + pattern + "' needs one integer conversion such as %d");
         std::string spec = pattern.substr(i, j - i) + "ll" + pattern[j];

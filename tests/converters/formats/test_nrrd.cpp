@@ -195,6 +195,12 @@ TEST(Nrrd, BadInputsAreClearErrors) {
                                    "encoding: gzip\n\nxx");
     expect_error([&] { read_nrrd(dir + "/huge.nrrd"); }, ErrorCode::Truncated, {"huge.nrrd"});
     expect_error([&] { read_nrrd(dir + "/absent.nrrd"); }, ErrorCode::IoError, {"absent.nrrd"});
+    // Found by fuzz_nrrd: a NUL inside a pattern's conversion ("%-2<NUL>") once
+    // passed as a flag and reached snprintf as an unfinished format.
+    write_text(dir + "/nul.nhdr", head + "encoding: raw\ndata file: d%-2" + std::string(2, '\0') + "x.raw 1 2 1 2\n");
+    expect_error([&] { read_nrrd(dir + "/nul.nhdr"); }, ErrorCode::CorruptData, {"nul.nhdr", "NUL"});
+    write_text(dir + "/nulend.nhdr", head + "encoding: raw\ndata file: d%" + std::string(1, '\0') + " 1 2 1 2\n");
+    expect_error([&] { read_nrrd(dir + "/nulend.nhdr"); }, ErrorCode::CorruptData, {"nulend.nhdr"});
 }
 
 TEST(Nrrd, EveryPrefixOfAValidFileFailsCleanly) {
