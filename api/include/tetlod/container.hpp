@@ -40,13 +40,14 @@ struct ContainerWriteOptions {
     /// when `source_path` names a readable file), the converter and the time.
     std::string source_path;
     std::string converter = "tetlod";
-    /// Called as (stage, done, total) while building and encoding: stage is
-    /// "build MT", "build HT" (done = total = 0) or "encode HT" (chunks).
+    /// Called as (stage, done, total) while building and encoding: "build MT",
+    /// "built MT", "build HT", "built HT", "encoded HT" (done = total = 0), and
+    /// "encode HT" after each chunk (done of total chunks).
     std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
 };
 
 struct ContainerWriteSummary {
-    uint64_t bytes = 0;                   // size of the container written
+    uint64_t bytes = 0;                   // size of the container written (0 for "-")
     int ht_k = -1, ht_max_level = -1;     // HT: L = 2^k, levels 0..max_level (-1: no HT)
     uint64_t mt_updates = 0, mt_base_tets = 0;
     double seconds = 0;

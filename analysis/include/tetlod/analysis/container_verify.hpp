@@ -7,7 +7,8 @@
 // reference mesh (5 tets per cell).
 //
 // Safe on untrusted files: every problem becomes the report's `failure`
-// (naming the file), never a crash or an exception.
+// (naming the file), never a crash; the only exception that escapes is
+// std::bad_alloc when the machine runs out of memory.
 #include <cstdint>
 #include <optional>
 #include <string>

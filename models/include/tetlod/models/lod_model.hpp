@@ -58,8 +58,8 @@ struct LodModel {
     TriangleMesh isosurface(const LodQuery& query, std::span<const double> isovalues) const;
 };
 
-/// The LodModel view of an already built model (fills dims, range, memory_bytes,
-/// updates and, for the MT, tets_per_split).
+/// The LodModel view of an already built model: fills dims, range, memory_bytes
+/// and updates (timings, stored sizes and tets_per_split are the maker's).
 LodModel make_lod_model(std::shared_ptr<const HtModel> ht);
 LodModel make_lod_model(std::shared_ptr<const MtModel> mt);
 
