@@ -51,7 +51,9 @@ LodModel open_container_model(const std::string& path, ModelKind kind) {
 LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& options) {
     Stopwatch clock;
     if (kind == ModelKind::Ht) {
-        const tlod::Metadata meta = tlod::metadata_for_volume(volume);
+        // The metadata only when encoding: computing it scans the volume.
+        const tlod::Metadata meta =
+            options.measure_storage ? tlod::metadata_for_volume(volume) : tlod::Metadata{};
         HtBuildOptions o;
         o.pad = options.pad;
         auto ht = std::make_shared<const HtModel>(HtModel::build(std::move(volume), o));
@@ -74,7 +76,7 @@ LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& opt
         m.stored_bytes = encode_mt(*mt, eo).size();
         m.stored_what = "encode_mt with field (zstd)";
     }
-    if (!mt->updates().empty()) {
+    if (options.measure_storage && !mt->updates().empty()) {
         LodQuery full;
         full.full = true;
         const double full_tets = double(mt->extract(full).tet_count());

@@ -20,7 +20,8 @@ struct ModelBuildOptions {
     /// HT only: embed the data in the enclosing (2^k+1)^3 cube (coarser meshes
     /// that cover the padded cube).
     bool pad = false;
-    /// Also encode the model to measure stored_bytes (costs an encode).
+    /// Also measure what the comparison reports: encode the model to count
+    /// stored_bytes and, for the MT, extract its full mesh for tets_per_split.
     bool measure_storage = false;
 };
 

@@ -30,6 +30,14 @@ const char* model_kind_name(ModelKind kind);
 /// "ht"/"HT" or "mt"/"MT"; anything else: nullopt.
 std::optional<ModelKind> parse_model_kind(const std::string& text);
 
+/// What an extraction did (for reports).
+struct LodExtractStats {
+    double max_error = 0;         // largest error bound of the mesh's tets
+    uint64_t visited_tets = 0;    // tets the refinement examined
+    uint64_t splits = 0;          // HT: diamonds split; MT: vertex splits applied
+    uint64_t forced_splits = 0;   // MT: splits forced by dependencies (HT: 0)
+};
+
 struct LodModel {
     ModelKind kind = ModelKind::Ht;
     /// Exactly one is set, matching `kind`.
@@ -47,12 +55,15 @@ struct LodModel {
     std::optional<double> tets_per_split;
     uint64_t updates = 0;               // MT: vertex splits; HT: diamonds (grid points - 8)
     bool from_container = false;        // read from a .tlod (build_seconds = load time)
+    int ht_k = 0;                       // HT: the cube's side is 2^k
+    bool ht_padded = false;             // HT: built on the padded cube
+    uint64_t mt_base_tets = 0;          // MT: tets of the base mesh
 
     uint64_t grid_points() const { return uint64_t(dims.count()); }
     /// The mesh of a selective-refinement query (any thresholds, box, isovalues).
     /// Throws tetlod::Error(CorruptData) only if the model is inconsistent, which
     /// a model that passed its decoder's validation never is.
-    TetMesh extract(const LodQuery& query) const;
+    TetMesh extract(const LodQuery& query, LodExtractStats* stats = nullptr) const;
     /// Marching tetrahedra on the mesh of `query` for each of `isovalues` (see
     /// tetlod/models/isosurface.hpp; throws InvalidArgument on a NaN isovalue).
     TriangleMesh isosurface(const LodQuery& query, std::span<const double> isovalues) const;
