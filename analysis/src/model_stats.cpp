@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/analysis/text_format.hpp"
 #include "tetlod/models/isosurface.hpp"
 

@@ -2,7 +2,7 @@
 // container.hpp).
 #include <filesystem>
 
-#include "tetlod/analysis/text_format.hpp"
+#include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/container.hpp"

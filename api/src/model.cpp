@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <new>
 
-#include "tetlod/analysis/text_format.hpp"
+#include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"

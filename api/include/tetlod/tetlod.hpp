@@ -36,6 +36,7 @@
 #include "tetlod/analysis/mesh_resample.hpp"
 #include "tetlod/analysis/model_stats.hpp"
 #include "tetlod/analysis/shape_quality.hpp"
+#include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/analysis/text_format.hpp"
 
 // Volume and mesh files.

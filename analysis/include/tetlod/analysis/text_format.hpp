@@ -2,7 +2,6 @@
 // Numbers as the reports print them (stats text, the command line's summaries),
 // so every tool formats sizes, times and errors the same way.
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <string>
 
@@ -16,17 +15,5 @@ std::string format_dims(const Dims& d, char sep = 'x');  // "65x65x65"
 std::string format_number(double v);                     // 6 significant digits: "2.55", "inf"
 /// An error bound with its share of the value range: "2.55 (1% of range)".
 std::string format_error(double error, const std::array<double, 2>& range);
-
-/// Wall time since construction (for the times reports print).
-class Stopwatch {
-  public:
-    Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-    double seconds() const {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    }
-
-  private:
-    std::chrono::steady_clock::time_point start_;
-};
 
 }  // namespace tetlod

@@ -3,6 +3,8 @@
 // consumer asks of it: its kind, grid, value range, sizes, and the LOD query.
 // Holds the model by shared pointer, so copies are cheap and share it; the
 // model itself is immutable, so concurrent extract() calls are safe.
+// Trust: a LodModel holds a model that was built in memory or came through a
+// decoder's validation, so its queries need no further checks on the input.
 //
 // How a LodModel is made (built from a volume, or read from a file) lives in
 // the public API (tetlod/model.hpp); this type sits here so that analysis/ can
