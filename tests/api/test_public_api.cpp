@@ -41,6 +41,21 @@ void expect_same_mesh(const TetMesh& a, const TetMesh& b) {
     EXPECT_EQ(a.tets, b.tets);
 }
 
+// The README's example, compiled (not run: it names files that do not exist).
+[[maybe_unused]] void readme_example() {
+    LodModel ht = build_model(ModelKind::Ht, read_volume_file("ct.nrrd").take());
+    ContainerWriteOptions o;
+    o.mt = true;
+    write_container(read_volume_file("ct.nrrd").take(), "ct.tlod", o);
+    LodModel mt = open_model("ct.tlod", ModelKind::Mt).take();
+    LodQuery q;
+    q.error_in = 2.0;
+    q.isovalues = {100};
+    write_tet_mesh(mt.extract(q), "lod.vtu");
+    VerifyReport r = verify_container("ct.tlod", /*deep=*/true);
+    (void)ht, (void)r;
+}
+
 TEST(PublicApi, VersionsAreSeparate) {
     EXPECT_EQ(std::string(library_version()), std::to_string(TETLOD_VERSION_MAJOR) + "." +
                                                   std::to_string(TETLOD_VERSION_MINOR) + "." +
