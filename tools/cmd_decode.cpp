@@ -87,9 +87,10 @@ int run_decode(const DecodeArgs& a) {
     const ModelKind kind = mt ? ModelKind::Mt : ModelKind::Ht;
     std::optional<LodModel> model;
     Volume original;
-    if (container) {
-        model = open_model(a.input, kind).take();  // names the file if it lacks the model
-        original = decode_container(a.input).take();
+    if (container) {  // the field decoded once, for both
+        StoredModel stored = open_stored_model(a.input, kind).take();
+        model = std::move(stored.model);
+        original = std::move(stored.volume);
     } else {
         original = load_volume(a.input, a.volume.options());
     }

@@ -94,6 +94,9 @@ TEST(PublicApi, BuildWriteOpenQueryMeasure) {
     for (const ModelKind kind : {ModelKind::Ht, ModelKind::Mt}) {
         const LodModel& built = kind == ModelKind::Ht ? ht : mt;
         const LodModel opened = open_model(path, kind).take();
+        const StoredModel stored = open_stored_model(path, kind).take();
+        EXPECT_EQ(stored.volume.data, decoded.data);
+        EXPECT_EQ(stored.model.range, built.range);
         EXPECT_TRUE(opened.from_container);
         EXPECT_EQ(opened.range, built.range);
         for (const LodQuery& q : queries(built.range)) {

@@ -146,4 +146,13 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
 /// container's MT field).
 Expected<Volume> decode_container(const std::string& path);
 
+/// A container's stored `model` together with the volume it stores, decoding
+/// the field once (what open_model + decode_container would give). An MT request
+/// on a container without one is a NotFound error naming the file.
+struct StoredModel {
+    LodModel model;
+    Volume volume;
+};
+Expected<StoredModel> open_stored_model(const std::string& path, ModelKind model);
+
 }  // namespace tetlod
