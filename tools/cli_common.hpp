@@ -3,16 +3,13 @@
 // a volume, and parsing of thresholds, boxes and vectors. Every parse failure is
 // a tetlod::Error(InvalidArgument) naming the flag and the bad text.
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
 
-#include "tetlod/models/lod_query.hpp"
-#include "tetlod/converters/volume_read_options.hpp"
-#include "tetlod/core/volume.hpp"
+#include "tetlod/tetlod.hpp"
 
 namespace CLI {
 class App;
@@ -102,23 +99,5 @@ void add_lod_flags(CLI::App& sub, LodFlags& flags, const std::string& group,
 /// an empty flag name: CLI11 prefixes the option's name to the message.
 std::function<std::string(const std::string&)> check_with(
     std::function<void(const std::string&)> parse);
-
-class Stopwatch {
-  public:
-    Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-    double seconds() const {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    }
-
-  private:
-    std::chrono::steady_clock::time_point start_;
-};
-
-std::string format_bytes(uint64_t bytes);                // "1.5 MiB"
-std::string format_seconds(double seconds);              // "12 ms", "3.40 s"
-std::string format_dims(const Dims& d, char sep = 'x');  // "65x65x65"
-std::string format_number(double v);                     // 6 significant digits: "2.55", "inf"
-/// An error bound with its share of the value range: "2.55 (1% of range)".
-std::string format_error(double error, const std::array<double, 2>& range);
 
 }  // namespace tetlod::cli

@@ -13,11 +13,6 @@
 #include <set>
 
 #include "cli_common.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/converters/medit_writer.hpp"
-#include "tetlod/converters/volume_formats.hpp"
-#include "tetlod/core/error.hpp"
-#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod::cli {
 
@@ -136,7 +131,7 @@ void report_unreported(const OutputPolicy& policy) {
 }
 
 bool container_input(const std::string& path) {
-    return is_tlod_file(path) || lower_extension(path) == ".tlod";
+    return is_container_path(path);
 }
 
 }  // namespace tetlod::cli

@@ -12,10 +12,7 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "lod_model.hpp"
-#include "model_stats.hpp"
-#include "tetlod/core/atomic_file.hpp"
-#include "tetlod/core/error.hpp"
+#include "stats_plots.hpp"
 
 namespace tetlod::cli {
 
@@ -153,13 +150,13 @@ int run_compare(const CompareArgs& a) {
     const Volume v = load_volume(a.input, a.volume.options());
     std::vector<ModelStats> ms;
     detail("building and measuring the HT");
-    ms.push_back(measure_model(build_model(ModelKind::Ht, v, false, true), "HT", opt));
+    ms.push_back(measure_model(build_model(ModelKind::Ht, v, ModelBuildOptions{false, true}), "HT", opt));
     std::string mt_note;
     if (a.ht_only) {
         mt_note = "left out (--ht-only).";
     } else {
         detail("building and measuring the MT");
-        ms.push_back(measure_model(build_model(ModelKind::Mt, v, false, true), "MT", opt));
+        ms.push_back(measure_model(build_model(ModelKind::Mt, v, ModelBuildOptions{false, true}), "MT", opt));
     }
     const std::string name = std::filesystem::path(a.input).filename().string();
     const auto plots = write_stats_plots(ms, a.report, name);

@@ -5,19 +5,11 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
-#include <optional>
 #include <ostream>
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/codecs/mt/mt_container.hpp"
-#include "tetlod/core/error.hpp"
-#include "tetlod/core/utf8.hpp"
-#include "tetlod/format/container.hpp"
-#include "tetlod/format/metadata.hpp"
 
 namespace tetlod::cli {
 
@@ -33,15 +25,6 @@ struct ConvertArgs {
     int error_bits = 4;
     std::string model = "ht";
 };
-
-std::string utc_now() {
-    std::time_t t = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char b[32];
-    std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return b;
-}
 
 int run_convert(const ConvertArgs& a) {
     Stopwatch sw;
@@ -67,62 +50,48 @@ int run_convert(const ConvertArgs& a) {
         const auto eq = kv.find('=');
         v.metadata[kv.substr(0, eq)] = kv.substr(eq + 1);
     }
-    tlod::Metadata meta = tlod::metadata_for_volume(v);
-    meta.format_keys[tlod::kKeySourceName] = std::filesystem::path(a.input).filename().string();
-    if (auto h = tlod::checksum64_file(a.input)) {
-        char b[24];
-        std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(*h));
-        meta.format_keys[tlod::kKeySourceXxh64] = b;
-        meta.format_keys[tlod::kKeySourceSize] = std::to_string(std::filesystem::file_size(a.input));
-    }
-    meta.format_keys[tlod::kKeyConverter] = "tetlod convert";
-    meta.format_keys[tlod::kKeyToolVersion] = TETLOD_VERSION_STRING;
-    meta.format_keys[tlod::kKeyCreated] = utc_now();
     detail("read " + a.input + ": " + format_dims(v.dims) + " " + value_type_name(v.type) + " in " +
            format_seconds(sw.seconds()));
 
     const bool bar = verbosity() >= 0 && ::isatty(STDERR_FILENO);
     const double n = double(v.dims.count());
     const std::size_t value_bytes = value_size(v.type);
-    tlod::ContainerWriter w;
+    ContainerWriteOptions wo;
+    wo.ht = with_ht;
+    wo.mt = with_mt;
+    wo.pad = a.pad;
+    wo.zstd_level = a.level;
+    wo.brick_log2 = a.brick_log2;
+    wo.error_bits = a.error_bits;
+    wo.source_path = a.input;
+    wo.converter = "tetlod convert";
+    wo.progress = [&](const std::string& stage, std::size_t done, std::size_t total) {
+        if (stage == "build MT") {
+            if (bar) std::fprintf(stderr, "building the MT (edge collapses)...\r");
+        } else if (stage == "built MT") {
+            detail("built the MT in " + format_seconds(sw.seconds()));
+        } else if (stage == "build HT") {
+            if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");
+        } else if (stage == "built HT") {
+            detail("built the HT in " + format_seconds(sw.seconds()));
+        } else if (stage == "encode HT" && bar) {
+            const int width = 40;
+            const int fill = total ? int(width * done / total) : width;
+            std::fprintf(stderr, "\rencoding [%.*s%*s] %zu/%zu chunks", fill,
+                         "########################################", width - fill, "", done, total);
+            std::fflush(stderr);
+        } else if (stage == "encoded HT" && bar) {
+            std::fprintf(stderr, "\n");
+        }
+    };
+    const ContainerWriteSummary written = write_container(std::move(v), a.output, wo);
     std::string summary;
-    std::optional<MtModel> mt;
-    if (with_mt) {
-        if (bar) std::fprintf(stderr, "building the MT (edge collapses)...\r");
-        mt = MtModel::build(v);
-        detail("built the MT in " + format_seconds(sw.seconds()));
-    }
-    if (with_ht) {
-        if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");
-        HtBuildOptions bo;
-        bo.pad = a.pad;
-        HtModel model = HtModel::build(std::move(v), bo);
-        detail("built the HT in " + format_seconds(sw.seconds()));
-        HtEncodeOptions eo;
-        eo.zstd_level = a.level;
-        eo.brick_log2 = a.brick_log2;
-        eo.error_mantissa_bits = a.error_bits;
-        if (bar)
-            eo.progress = [](std::size_t done, std::size_t total) {
-                const int width = 40;
-                const int fill = total ? int(width * done / total) : width;
-                std::fprintf(stderr, "\rencoding [%.*s%*s] %zu/%zu chunks", fill,
-                             "########################################", width - fill, "", done, total);
-                std::fflush(stderr);
-            };
-        encode_ht(model, meta, w, eo);
-        if (bar) std::fprintf(stderr, "\n");
-        summary += ", HT k = " + std::to_string(model.domain().k) + ", levels 0.." +
-                   std::to_string(model.domain().max_level());
-    }
-    if (mt) {
-        MtEncodeOptions mo;
-        mo.zstd_level = a.level;
-        encode_mt_container(*mt, meta, w, with_ht, mo);
-        summary += ", MT " + std::to_string(mt->updates().size()) + " updates on " +
-                   std::to_string(mt->base_tets().size()) + " base tets";
-    }
-    w.write(a.output);
+    if (written.ht_k >= 0)
+        summary += ", HT k = " + std::to_string(written.ht_k) + ", levels 0.." +
+                   std::to_string(written.ht_max_level);
+    if (with_mt)
+        summary += ", MT " + std::to_string(written.mt_updates) + " updates on " +
+                   std::to_string(written.mt_base_tets) + " base tets";
 
     std::error_code size_error;  // "-" (standard output) has no size
     const uint64_t size = std::filesystem::file_size(a.output, size_error);

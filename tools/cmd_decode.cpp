@@ -4,24 +4,15 @@
 // in its tet (analysis/mesh_resample.hpp), with the deviation from the original.
 #include <CLI/CLI.hpp>
 
-#include <algorithm>
-#include <cmath>
 #include <filesystem>
 #include <iostream>
-#include <memory>
+#include <optional>
 #include <ostream>
 
 #include "cli_common.hpp"
 #include "cli_outputs.hpp"
 #include "command.hpp"
-#include "lod_model.hpp"
-#include "tetlod/codecs/mt/mt_container.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/models/ht/ht_model.hpp"
-#include "tetlod/analysis/mesh_resample.hpp"
-#include "tetlod/models/mt/mt_model.hpp"
-#include "tetlod/converters/volume_formats.hpp"
-#include "tetlod/core/error.hpp"
+#include "model_choice.hpp"
 
 namespace tetlod::cli {
 
@@ -32,34 +23,6 @@ struct DecodeArgs {
     LodFlags lod;
     VolumeFlags volume;
 };
-
-void copy_description(const Volume& from, Volume& to) {
-    to.spacing = from.spacing;
-    to.origin = from.origin;
-    to.field_name = from.field_name;
-    to.units = from.units;
-    to.metadata = from.metadata;
-}
-
-// The original (unpadded) volume out of a decoded HT field.
-Volume crop(const Volume& f, const Dims& src) {
-    Volume out = Volume::allocate(src, f.type);
-    const std::size_t w = value_size(f.type);
-    for (int64_t z = 0; z < src.z; ++z)
-        for (int64_t y = 0; y < src.y; ++y)
-            std::copy_n(f.data.data() + std::size_t(f.dims.index(0, y, z)) * w, std::size_t(src.x) * w,
-                        out.data.data() + std::size_t(src.index(0, y, z)) * w);
-    copy_description(f, out);
-    return out;
-}
-
-Volume read_container(const std::string& path) {
-    auto r = tlod::ContainerReader::open(path);
-    if (!r) throw Error(r.failure().code, r.failure().message);
-    auto v = decode_volume(*r);
-    if (!v) throw Error(v.failure().code, v.failure().message);
-    return std::move(*v);
-}
 
 void print_written(const std::string& output, const VolumeLocation& where, const Volume& v,
                    double seconds) {
@@ -103,14 +66,11 @@ int run_decode(const DecodeArgs& a) {
         throw Error(ErrorCode::NotBuilt,
                     "'" + a.output + "': this build of tetlod cannot write that format");
     // A .tlod name that is missing or not a container gets the container reader's message.
-    const bool container = container_input(a.input);
+    const bool container = is_container_path(a.input);
     Stopwatch clock;
 
     if (!lod) {  // the original volume, bit-exact
-        const ContainerModels held = container ? container_models(a.input) : ContainerModels{};
-        const Volume v = !container ? load_volume(a.input, a.volume.options())
-                         : (held.mt && !held.ht) ? mt_container_volume(a.input, load_mt_model(a.input))
-                                                 : read_container(a.input);
+        const Volume v = container ? decode_container(a.input).take() : load_volume(a.input, a.volume.options());
         write_volume(v, a.output, a.format);
         warn_metadata_lost(v, a.output, a.format);
         print_written(a.output, where, v, clock.seconds());
@@ -122,21 +82,15 @@ int run_decode(const DecodeArgs& a) {
     const auto error_out = a.lod.error_out_threshold();
     LodQuery query = a.lod.region_query(nullptr);
 
-    // The original volume and the model.
+    // The original volume and the model (a container's stored model; a volume's
+    // built below, after the box is checked against its dims).
+    const ModelKind kind = mt ? ModelKind::Mt : ModelKind::Ht;
+    std::optional<LodModel> model;
     Volume original;
-    std::unique_ptr<HtModel> ht;
-    std::unique_ptr<MtModel> mtm;
-    if (container && mt) {  // the container's MT (load_mt_model names the file if it has none)
-        mtm = std::make_unique<MtModel>(load_mt_model(a.input));
-        original = mt_container_volume(a.input, *mtm);
-    } else if (container) {
-        auto r = tlod::ContainerReader::open(a.input);
-        if (!r) throw Error(r.failure().code, r.failure().message);
-        auto d = decode_ht(*r);
-        if (!d) throw Error(d.failure().code, d.failure().message);
-        original = crop(d->field, d->layout.metadata.dims);
-        ht = std::make_unique<HtModel>(
-            HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors)));
+    if (container) {  // the field decoded once, for both
+        StoredModel stored = open_stored_model(a.input, kind).take();
+        model = std::move(stored.model);
+        original = std::move(stored.volume);
     } else {
         original = load_volume(a.input, a.volume.options());
     }
@@ -144,43 +98,22 @@ int run_decode(const DecodeArgs& a) {
     const Dims dims = original.dims;
     a.lod.check_box_meets(query, dims);
     Stopwatch build_clock;
-    if (!container) {
-        if (mt)
-            mtm = std::make_unique<MtModel>(MtModel::build(Volume(original)));
-        else
-            ht = std::make_unique<HtModel>(HtModel::build(Volume(original)));
-    }
+    if (!container) model = build_model(kind, Volume(original));
     const double build_seconds = container ? 0.0 : build_clock.seconds();
-    const auto range = mt ? mtm->value_range() : ht->value_range();
+    const auto range = model->range;
     query.error_in = error_in.resolve(range);
     query.error_out = error_out.resolve(range);
 
     Stopwatch extract_clock;
-    const TetMesh mesh = mt ? mtm->extract(query) : ht->extract(query);
+    const TetMesh mesh = model->extract(query);
     const double extract_seconds = extract_clock.seconds();
-    ht.reset();
-    mtm.reset();
+    model.reset();
 
     Stopwatch resample_clock;
-    MeshResampleStats rs;
-    Volume lodv = resample_mesh(mesh, dims, original.type, &rs);
+    const LodVolume lod_result = lod_volume(mesh, original);
+    const Volume& lodv = lod_result.volume;
+    const LodDeviation& dev = lod_result.deviation;
     const double resample_seconds = resample_clock.seconds();
-    if (rs.covered != rs.grid_points)
-        throw Error(ErrorCode::CorruptData, "the LOD mesh leaves " +
-                                             std::to_string(rs.grid_points - rs.covered) +
-                                             " grid points uncovered");
-    copy_description(original, lodv);
-
-    double max_dev = 0, sum_dev = 0;
-    const int64_t n = dims.count();
-    for (int64_t i = 0; i < n; ++i) {
-        const double d = std::fabs(lodv.value(i) - original.value(i));
-        if (std::isnan(d)) continue;
-        max_dev = std::max(max_dev, d);
-        sum_dev += d;
-    }
-    double mesh_error = 0;
-    for (float e : mesh.error) mesh_error = std::max(mesh_error, double(e));
 
     Stopwatch write_clock;
     write_volume(lodv, a.output, a.format);
@@ -193,9 +126,9 @@ int run_decode(const DecodeArgs& a) {
       << (container ? " (.tlod)" : "") << "\n";
     o << "query    " << (mt ? "MT" : "HT") << ", " << a.lod.describe(query, range) << "\n";
     o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
-      << " vertices, largest error " << format_error(mesh_error, range) << "\n";
-    o << "deviation max " << format_error(max_dev, range) << ", mean "
-      << format_number(n ? sum_dev / double(n) : 0.0) << " over " << n << " grid points\n";
+      << " vertices, largest error " << format_error(dev.mesh_error, range) << "\n";
+    o << "deviation max " << format_error(dev.max, range) << ", mean " << format_number(dev.mean) << " over "
+      << dev.grid_points << " grid points\n";
     o << "time     " << (container ? "load " + format_seconds(load_seconds)
                                    : "read " + format_seconds(load_seconds) + ", build " +
                                          format_seconds(build_seconds))

@@ -8,13 +8,7 @@
 
 #include "cli_common.hpp"
 #include "cli_outputs.hpp"
-#include "tetlod/core/output_policy.hpp"
 #include "command.hpp"
-#include "tetlod/models/ht/ht_model.hpp"
-#include "tetlod/converters/mesh_writer.hpp"
-#include "tetlod/converters/raw_volume.hpp"
-#include "tetlod/converters/sample_volumes.hpp"
-#include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
 
@@ -87,15 +81,14 @@ int run_demo(const DemoArgs& a) {
         o << "wrote " << raw << " (" << format_bytes(volume.bytes()) << ")\n";
         mark_reported(raw);
 
-        Stopwatch build_clock;
-        const HtModel model = HtModel::build(std::move(volume));
-        o << "built the HT of " << name << " in " << format_seconds(build_clock.seconds()) << "\n";
-        const auto range = model.value_range();
+        const LodModel model = build_model(ModelKind::Ht, std::move(volume));
+        o << "built the HT of " << name << " in " << format_seconds(model.build_seconds) << "\n";
+        const auto range = model.range;
         std::snprintf(line, sizeof line, "%-34s %-44s %9s %9s %-22s %9s\n", "file", "query", "tets",
                       "vertices", "max error", "extract");
         o << line;
         for (const auto& q : demo_queries(dims, range)) {
-            HtExtractStats stats;
+            LodExtractStats stats;
             Stopwatch clock;
             const TetMesh mesh = model.extract(q.query, &stats);
             const double seconds = clock.seconds();

@@ -8,14 +8,7 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "cli_outputs.hpp"
-#include "extract_tlod.hpp"
-#include "lod_model.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/models/ht/ht_model.hpp"
-#include "tetlod/models/mt/mt_model.hpp"
-#include "tetlod/converters/mesh_writer.hpp"
-#include "tetlod/core/error.hpp"
+#include "model_choice.hpp"
 
 namespace tetlod::cli {
 
@@ -28,6 +21,40 @@ struct ExtractArgs {
     VolumeFlags volume;
 };
 
+// A container: the HT read lazily (only the chunks the query examines), or its MT.
+int run_extract_container(const ExtractArgs& a, ModelKind model) {
+    const auto error_in = a.lod.error_in();
+    const auto error_out = a.lod.error_out_threshold();
+    const ContainerExtract x =
+        extract_from_container(a.input, model, a.lod.region_query(nullptr),
+                               [&](LodQuery& q, const std::array<double, 2>& range) {
+                                   q.error_in = error_in.resolve(range);
+                                   q.error_out = error_out.resolve(range);
+                               })
+            .take();
+    MeshWriteOptions wo;
+    wo.compress = !a.no_compress;
+    write_tet_mesh(x.mesh, a.output, a.format, wo);
+    auto& o = out();
+    if (model == ModelKind::Mt) {
+        o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
+          << " (.tlod, MT: " << x.mt_updates << " vertex splits, field "
+          << (x.mt_field_from_ht ? "from the HT" : "in the MT") << ")\n";
+        o << "mesh     " << x.mesh.tet_count() << " tets, " << x.mesh.vertex_count() << " vertices, "
+          << format_seconds(x.seconds) << "\n";
+    } else {
+        o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
+          << " (.tlod, lazy)\n";
+        o << "mesh     " << x.mesh.tet_count() << " tets, " << x.mesh.vertex_count()
+          << " vertices, largest error " << format_error(x.max_error, x.range) << "\n";
+        o << "read     " << format_bytes(x.bytes_read) << " of " << format_bytes(x.file_size) << ", "
+          << x.chunks_decoded << " of " << x.chunks_total << " chunks, " << x.passes << " passes, "
+          << format_seconds(x.seconds) << "\n";
+    }
+    o << "wrote    " << a.output << "\n";
+    return 0;
+}
+
 int run_extract(const ExtractArgs& a) {
     const bool mt = resolve_model(a.model, a.input) == "mt";
     if (mt && a.pad)
@@ -38,60 +65,32 @@ int run_extract(const ExtractArgs& a) {
     const auto error_in = a.lod.error_in();
     const auto error_out = a.lod.error_out_threshold();
 
-    if (container_input(a.input)) {  // containers: lazy extraction, no model build
-        TlodExtractRequest t{a.input, a.output, a.format, {}, {}, {}, !a.no_compress};
-        t.model = mt ? "mt" : "ht";
-        t.query = a.lod.region_query(nullptr);
-        t.error_in = [error_in](const std::array<double, 2>& r) { return error_in.resolve(r); };
-        t.error_out = [error_out](const std::array<double, 2>& r) { return error_out.resolve(r); };
-        return run_extract_tlod(std::move(t));
-    }
+    if (is_container_path(a.input)) return run_extract_container(a, mt ? ModelKind::Mt : ModelKind::Ht);
     Volume volume = load_volume(a.input, a.volume.options());
     const Dims dims = volume.dims;
     const std::string type_name = value_type_name(volume.type);
     LodQuery query = a.lod.region_query(&dims);
 
-    TetMesh mesh;
-    std::array<double, 2> range{0, 0};
-    double build_seconds = 0, extract_seconds = 0, max_error = 0;
-    std::string model_detail;
-    if (mt) {  // MT: built by edge collapse from the volume, same query
-        Stopwatch build_clock;
-        const MtModel model = MtModel::build(std::move(volume));
-        build_seconds = build_clock.seconds();
-        range = model.value_range();
-        query.error_in = error_in.resolve(range);
-        query.error_out = error_out.resolve(range);
-        MtExtractStats stats;
-        Stopwatch extract_clock;
-        mesh = model.extract(query, &stats);
-        extract_seconds = extract_clock.seconds();
-        max_error = stats.max_error;
-        model_detail = "model: MT, " + std::to_string(model.updates().size()) + " vertex splits, " +
-                       std::to_string(model.base_tets().size()) + " base tets; " +
-                       std::to_string(stats.splits) + " splits applied (" +
-                       std::to_string(stats.forced_splits) + " forced), " +
-                       std::to_string(stats.visited_tets) + " tets visited";
-    } else {
-        HtBuildOptions build_options;
-        build_options.pad = a.pad;
-        Stopwatch build_clock;
-        const HtModel model = HtModel::build(std::move(volume), build_options);
-        build_seconds = build_clock.seconds();
-        range = model.value_range();
-        query.error_in = error_in.resolve(range);
-        query.error_out = error_out.resolve(range);
-
-        HtExtractStats stats;
-        Stopwatch extract_clock;
-        mesh = model.extract(query, &stats);
-        extract_seconds = extract_clock.seconds();
-        max_error = stats.max_error;
-        model_detail = "model: HT, cube side 2^" + std::to_string(model.domain().k) +
-                       (model.domain().padded ? " (padded)" : "") + ", " +
-                       std::to_string(stats.split_diamonds) + " diamonds split, " +
-                       std::to_string(stats.visited_tets) + " tets visited";
-    }
+    ModelBuildOptions build_options;
+    build_options.pad = a.pad;
+    const LodModel model = build_model(mt ? ModelKind::Mt : ModelKind::Ht, std::move(volume), build_options);
+    const double build_seconds = model.build_seconds;
+    const std::array<double, 2> range = model.range;
+    query.error_in = error_in.resolve(range);
+    query.error_out = error_out.resolve(range);
+    LodExtractStats stats;
+    Stopwatch extract_clock;
+    const TetMesh mesh = model.extract(query, &stats);
+    const double extract_seconds = extract_clock.seconds();
+    const double max_error = stats.max_error;
+    const std::string model_detail =
+        mt ? "model: MT, " + std::to_string(model.updates) + " vertex splits, " +
+                 std::to_string(model.mt_base_tets) + " base tets; " + std::to_string(stats.splits) +
+                 " splits applied (" + std::to_string(stats.forced_splits) + " forced), " +
+                 std::to_string(stats.visited_tets) + " tets visited"
+           : "model: HT, cube side 2^" + std::to_string(model.ht_k) + (model.ht_padded ? " (padded)" : "") +
+                 ", " + std::to_string(stats.splits) + " diamonds split, " +
+                 std::to_string(stats.visited_tets) + " tets visited";
 
     MeshWriteOptions write_options;
     write_options.compress = !a.no_compress;

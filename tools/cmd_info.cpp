@@ -10,9 +10,6 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/codecs/mt/mt_container.hpp"
-#include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
 
@@ -24,59 +21,16 @@ struct InfoArgs {
     bool sections = false;
 };
 
-struct CycleSummary {
-    int cycle = 0;
-    uint64_t chunks = 0, points = 0, field_bytes = 0, error_bytes = 0, raw_bytes = 0;
-};
-
 int run_info(const InfoArgs& a) {
-    auto r = tlod::ContainerReader::open(a.input);
-    if (!r) throw Error(r.failure().code, r.failure().message);
-    const auto& h = r->header();
-    // Models: the HT (required feature bit 0) and/or the MT (bit 1, spec §10).
-    std::optional<HtLayout> lay;
-    std::optional<MtLayout> mlay;
-    if (h.required_features & tlod::kFeatureHt) {
-        auto l = read_ht_layout(*r);
-        if (!l) throw Error(l.failure().code, l.failure().message);
-        lay = std::move(*l);
-    }
-    if (container_has_mt(*r)) {
-        auto l = read_mt_layout(*r);
-        if (!l) throw Error(l.failure().code, l.failure().message);
-        mlay = std::move(*l);
-    }
-    if (!lay && !mlay) throw Error(ErrorCode::NotFound, a.input + ": the container holds no model");
-    const tlod::Metadata& md = lay ? lay->metadata : mlay->metadata;
-    const auto& secs = r->sections();
+    const ContainerInfo info = inspect_container(a.input).take();
+    const tlod::Header& h = info.header;
+    const std::optional<HtInfo>& lay = info.ht;
+    const std::optional<MtInfo>& mlay = info.mt;
+    const tlod::Metadata& md = info.metadata;
+    const auto& secs = info.sections;
     const double n = double(md.dims.count());
-    uint64_t ht_bytes = 0, mt_bytes = 0;
-    for (const auto& s : secs) {
-        if (s.type == tlod::kSectionHtHeader || s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors)
-            ht_bytes += s.stored_size;
-        if (s.type == tlod::kSectionMtHeader || s.type == tlod::kSectionMtStructure) mt_bytes += s.stored_size;
-    }
-
-    std::map<int, CycleSummary, std::greater<int>> cycles;
-    if (lay)
-        for (const HtChunk& c : lay->chunks) {
-            auto& s = cycles[c.cycle];
-            s.cycle = c.cycle;
-            ++s.chunks;
-            s.points += c.points;
-            s.field_bytes += secs[c.field_section].stored_size;
-            s.error_bytes += secs[c.error_section].stored_size;
-            s.raw_bytes += secs[c.field_section].raw_size + secs[c.error_section].raw_size;
-        }
-    auto levels_of = [&](int t) -> std::string {
-        if (t == lay->domain.k) return "corners";
-        const int l0 = 3 * (lay->domain.k - 1 - t);
-        return std::to_string(l0) + ".." + std::to_string(l0 + 2);
-    };
-    auto key = [&](const char* k) {
-        auto it = md.format_keys.find(k);
-        return it == md.format_keys.end() ? std::string() : it->second;
-    };
+    const uint64_t ht_bytes = lay ? lay->section_bytes : 0, mt_bytes = mlay ? mlay->section_bytes : 0;
+    auto key = [&](const char* k) { return info.format_key(k); };
 
     if (a.json) {
         nlohmann::json j;
@@ -95,22 +49,22 @@ int run_info(const InfoArgs& a) {
         j["bytes_per_grid_point"] = double(h.file_size) / n;
         j["models"] = nlohmann::json::array();
         if (lay) {
-            const auto& d = lay->domain;
+            const auto& d = *lay;
             nlohmann::json m;
             m["type"] = "HT";
             m["k"] = d.k;
             m["L"] = d.L;
             m["box_max"] = d.box_max;
             m["padded"] = d.padded;
-            m["levels"] = {0, d.max_level()};
+            m["levels"] = {0, d.max_level};
             m["brick_log2"] = lay->brick_log2;
             m["error_mantissa_bits"] = lay->error_mantissa_bits;
             m["error_max"] = key(tlod::kKeyHtErrorMax);
             m["always_split_diamonds"] = key(tlod::kKeyHtAlwaysSplit);
             m["section_bytes"] = ht_bytes;
             m["bytes_per_grid_point"] = double(ht_bytes) / n;
-            for (const auto& [t, s] : cycles)
-                m["cycles"].push_back({{"cycle", t}, {"levels", levels_of(t)}, {"chunks", s.chunks},
+            for (const auto& s : lay->cycles)
+                m["cycles"].push_back({{"cycle", s.cycle}, {"levels", s.levels}, {"chunks", s.chunks},
                                        {"points", s.points}, {"field_bytes", s.field_bytes},
                                        {"error_bytes", s.error_bytes}, {"raw_bytes", s.raw_bytes}});
             j["models"].push_back(m);
@@ -121,9 +75,9 @@ int run_info(const InfoArgs& a) {
             m["base_tets"] = mlay->base_tets;
             m["updates"] = mlay->updates;
             m["error_mantissa_bits"] = mlay->error_mantissa_bits;
-            m["field"] = mlay->with_ht ? "shared with the HT" : "in the MT payload";
-            m["header_bytes"] = secs[mlay->header_section].stored_size;
-            m["structure_bytes"] = secs[mlay->structure_section].stored_size;
+            m["field"] = mlay->field_from_ht ? "shared with the HT" : "in the MT payload";
+            m["header_bytes"] = mlay->header_bytes;
+            m["structure_bytes"] = mlay->structure_bytes;
             m["section_bytes"] = mt_bytes;
             m["bytes_per_grid_point"] = double(mt_bytes) / n;
             j["models"].push_back(m);
@@ -135,7 +89,7 @@ int run_info(const InfoArgs& a) {
                                      {"stored_size", s.stored_size}, {"raw_size", s.raw_size},
                                      {"arg0", s.arg0}, {"arg1", s.arg1}});
         }
-        j["bytes_read"] = r->bytes_read();
+        j["bytes_read"] = info.bytes_read;
         // User metadata values are arbitrary bytes (spec): never fail on them.
         out() << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
         return 0;
@@ -154,8 +108,8 @@ int run_info(const InfoArgs& a) {
       << "," << format_number(md.spacing[2]) << "  origin " << format_number(md.origin[0]) << ","
       << format_number(md.origin[1]) << "," << format_number(md.origin[2]) << "\n";
     if (lay) {
-        const auto& d = lay->domain;
-        o << "  model     HT, k = " << d.k << " (cube " << d.L + 1 << "^3), levels 0.." << d.max_level()
+        const auto& d = *lay;
+        o << "  model     HT, k = " << d.k << " (cube " << d.L + 1 << "^3), levels 0.." << d.max_level
           << ", box " << d.box_max[0] + 1 << "x" << d.box_max[1] + 1 << "x" << d.box_max[2] + 1
           << (d.padded ? " (padded)" : "") << ", bricks 2^(t+" << lay->brick_log2 + 1 << ")\n";
         o << "  errors    per diamond, rounded up to " << lay->error_mantissa_bits
@@ -165,19 +119,18 @@ int run_info(const InfoArgs& a) {
     if (mlay)
         o << "  model     MT, " << mlay->updates << " vertex splits on " << mlay->base_tets
           << " base tets, errors rounded up to " << mlay->error_mantissa_bits << " mantissa bits, field "
-          << (mlay->with_ht ? "shared with the HT" : "in the MT payload") << "; MT_HEADER "
-          << secs[mlay->header_section].stored_size << " B, MT_STRUCTURE "
-          << secs[mlay->structure_section].stored_size << " B\n";
+          << (mlay->field_from_ht ? "shared with the HT" : "in the MT payload") << "; MT_HEADER "
+          << mlay->header_bytes << " B, MT_STRUCTURE " << mlay->structure_bytes << " B\n";
     for (const auto& [k, v] : md.format_keys)
         if (k.rfind("ht.", 0) != 0 && k != tlod::kKeyFieldName && k != tlod::kKeyFieldUnits)
             o << "  " << k << std::string(k.size() < 12 ? 12 - k.size() : 1, ' ') << v << "\n";
     for (const auto& [k, v] : md.user_keys) o << "  user: " << k << " = " << v << "\n";
     if (lay) {
         o << "  cycle  levels    chunks     points   field bytes  error bytes   B/pt (of all)\n";
-        for (const auto& [t, s] : cycles) {
+        for (const auto& s : lay->cycles) {
             char line[160];
-            std::snprintf(line, sizeof line, "  %5d  %-8s %7llu %10llu %13llu %12llu   %.3f\n", t,
-                          levels_of(t).c_str(), (unsigned long long)s.chunks,
+            std::snprintf(line, sizeof line, "  %5d  %-8s %7llu %10llu %13llu %12llu   %.3f\n", s.cycle,
+                          s.levels.c_str(), (unsigned long long)s.chunks,
                           (unsigned long long)s.points, (unsigned long long)s.field_bytes,
                           (unsigned long long)s.error_bytes,
                           double(s.field_bytes + s.error_bytes) / n);
@@ -196,7 +149,7 @@ int run_info(const InfoArgs& a) {
             o << line;
         }
     }
-    detail("read " + std::to_string(r->bytes_read()) + " bytes of the file");
+    detail("read " + std::to_string(info.bytes_read) + " bytes of the file");
     return 0;
 }
 

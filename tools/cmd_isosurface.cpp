@@ -9,13 +9,7 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "lod_model.hpp"
-#include "tetlod/models/isosurface.hpp"
-#include "tetlod/converters/features.hpp"
-#include "tetlod/core/error.hpp"
-#if TETLOD_HAVE_OPENMESH
-#include "tetlod/converters/surface_writer.hpp"
-#endif
+#include "model_choice.hpp"
 
 namespace tetlod::cli {
 

@@ -6,9 +6,6 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/converters/raw_volume.hpp"
-#include "tetlod/converters/sample_volumes.hpp"
-#include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
 

@@ -9,10 +9,8 @@
 #include "cli_common.hpp"
 #include "cli_outputs.hpp"
 #include "command.hpp"
-#include "lod_model.hpp"
-#include "model_stats.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/core/error.hpp"
+#include "model_choice.hpp"
+#include "stats_plots.hpp"
 
 namespace tetlod::cli {
 
@@ -29,7 +27,7 @@ int run_stats(const StatsArgs& a) {
     StatsOptions opt;
     for (const auto& s : a.isovalues) opt.isovalues.push_back(parse_number(s, "--isovalue"));
     std::vector<ModelKind> kinds;
-    const bool tlod = container_input(a.input);
+    const bool tlod = is_container_path(a.input);
     if (a.models == "all" && tlod) {  // the models the container holds
         const ContainerModels held = container_models(a.input);
         if (held.ht || !held.mt) kinds.push_back(ModelKind::Ht);  // neither: the HT reader says why
@@ -49,7 +47,7 @@ int run_stats(const StatsArgs& a) {
         const Volume v = load_volume(a.input, a.volume.options());
         for (auto k : kinds) {
             detail("building " + std::string(model_kind_name(k)));
-            const LodModel m = build_model(k, v, a.pad, true);
+            const LodModel m = build_model(k, v, ModelBuildOptions{a.pad, true});
             stats.push_back(measure_model(m, model_kind_name(k), opt));
         }
     }

@@ -5,102 +5,32 @@
 // --deep its full mesh must be the reference mesh, 5 tets per cell.
 #include <CLI/CLI.hpp>
 
-#include <cmath>
 #include <ostream>
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
-#include "tetlod/codecs/mt/mt_container.hpp"
-#include "tetlod/core/error.hpp"
 
 namespace tetlod::cli {
 
 namespace {
 
+// Prints what the report established, in order; a failure ends the line where
+// verification stopped and is then raised (exit status from its code).
 int run_verify(const std::string& input, bool deep) {
     Stopwatch sw;
-    auto r = tlod::ContainerReader::open(input);
-    if (!r) throw Error(r.failure().code, r.failure().message);
-    // Checksums of every section, known or not.
-    for (std::size_t i = 0; i < r->sections().size(); ++i) {
-        auto s = r->read_stored(i);
-        if (!s) throw Error(s.failure().code, s.failure().message);
-    }
+    const VerifyReport rep = verify_container(input, deep);
     auto& o = out();
-    o << input << ": OK: header, table and " << r->sections().size() << " section checksums";
-    const bool has_ht = (r->header().required_features & tlod::kFeatureHt) != 0;
-    const bool has_mt = container_has_mt(*r);
-    if (!has_ht && !has_mt) throw Error(ErrorCode::NotFound, input + ": the container holds no model");
-    if (has_mt) {
-        auto r2 = tlod::ContainerReader::open(input);
-        if (!r2) throw Error(r2.failure().code, r2.failure().message);
-        auto mt = decode_mt_container(*r2);
-        if (!mt) throw Error(mt.failure().code, mt.failure().message);
-        LodQuery q;
-        q.error_in = 0.0;
-        const TetMesh m0 = mt->extract(q);  // throws CorruptData on an inconsistent MT
-        o << "; MT structure (" << mt->updates().size() << " vertex splits, " << m0.tet_count()
+    if (rep.checksums_ok)
+        o << input << ": OK: header, table and " << rep.sections << " section checksums";
+    if (rep.mt_ok)
+        o << "; MT structure (" << rep.mt_updates << " vertex splits, " << rep.mt_tets_at_error0
           << " tets at error 0)";
-        if (deep) {
-            LodQuery full;
-            full.full = true;
-            const Dims dd = mt->field().dims;
-            const uint64_t want = 5 * uint64_t(dd.x - 1) * uint64_t(dd.y - 1) * uint64_t(dd.z - 1);
-            const uint64_t got = mt->extract(full).tet_count();
-            if (got != want)
-                throw Error(ErrorCode::CorruptData, input + ": the MT's full mesh has " + std::to_string(got) +
-                                                        " tets, the reference mesh " + std::to_string(want));
-            o << "; deep: MT full mesh = reference mesh (" << want << " tets)";
-        }
-    }
-    if (!has_ht) {
-        o << " (" << format_seconds(sw.seconds()) << ")\n";
-        return 0;
-    }
-    // Structure, frames, sizes and code ranges: decode everything.
-    auto d = decode_ht(*r);
-    if (!d) throw Error(d.failure().code, d.failure().message);
-    o << "; HT structure; field and " << d->chunks_decoded << " chunks decoded";
-    if (deep) {
-        HtBuildOptions bo;
-        bo.pad = d->layout.domain.padded;
-        Volume v;
-        if (d->layout.domain.padded) {
-            auto r2 = tlod::ContainerReader::open(input);
-            auto orig = decode_volume(*r2);
-            if (!orig) throw Error(orig.failure().code, orig.failure().message);
-            v = std::move(*orig);
-        } else {
-            v = d->field;
-        }
-        const HtModel m = HtModel::build(std::move(v), bo);
-        const auto& truth = m.diamond_errors();
-        if (truth.size() != d->errors.size())
-            throw Error(ErrorCode::CorruptData, input + ": recomputed model has a different size");
-        uint64_t bad = 0, first = 0;
-        double worst_ratio = 1.0;
-        for (std::size_t i = 0; i < truth.size(); ++i) {
-            const float t = truth[i], s = d->errors[i];
-            if (!(s >= t) && !std::isnan(t)) {
-                if (bad++ == 0) first = i;
-            } else if (t > 0 && std::isfinite(s)) {
-                worst_ratio = std::max(worst_ratio, double(s) / double(t));
-            }
-        }
-        if (bad) {
-            const Dims dd = d->field.dims;
-            throw Error(ErrorCode::CorruptData,
-                        input + ": " + std::to_string(bad) +
-                            " stored error bounds are below the recomputed errors (first at (" +
-                            std::to_string(first % dd.x) + "," + std::to_string(first / dd.x % dd.y) +
-                            "," + std::to_string(first / (dd.x * dd.y)) + "): stored " +
-                            format_number(d->errors[first]) + ", exact " +
-                            format_number(truth[first]) + ")");
-        }
-        o << "; deep: all " << truth.size() << " stored bounds >= exact errors (at most "
-          << format_number(worst_ratio) << "x)";
-    }
+    if (rep.mt_deep_ok) o << "; deep: MT full mesh = reference mesh (" << rep.mt_reference_tets << " tets)";
+    if (rep.ht_ok) o << "; HT structure; field and " << rep.ht_chunks_decoded << " chunks decoded";
+    if (rep.ht_deep_ok)
+        o << "; deep: all " << rep.ht_bounds_checked << " stored bounds >= exact errors (at most "
+          << format_number(rep.ht_worst_bound_ratio) << "x)";
+    if (rep.failure) throw Error(rep.failure->code, rep.failure->message);
     o << " (" << format_seconds(sw.seconds()) << ")\n";
     return 0;
 }

@@ -15,9 +15,6 @@
 #include "cli_common.hpp"
 #include "cli_outputs.hpp"
 #include "command.hpp"
-#include "tetlod/core/error.hpp"
-#include "tetlod/core/output_policy.hpp"
-#include "tetlod/format/container.hpp"
 
 namespace tetlod::cli {
 
@@ -32,8 +29,8 @@ std::vector<Command>& command_registry() {
 int main(int argc, char** argv) {
     using namespace tetlod;
     CLI::App app{"tetlod: multiresolution tetrahedral meshes of 3D scalar volumes", "tetlod"};
-    app.set_version_flag("--version", std::string("tetlod ") + TETLOD_VERSION_STRING + " (" +
-                                          tlod::format_version_string() + ")");
+    app.set_version_flag("--version", std::string("tetlod ") + library_version() + " (" +
+                                          format_version() + ")");
     app.require_subcommand(1);
     app.fallthrough();  // -q/-v also work after the subcommand name
     bool quiet = false;

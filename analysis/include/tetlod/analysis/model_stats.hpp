@@ -3,15 +3,19 @@
 // experimental section of Danovaro, De Floriani, Lee, Samet ("Multiresolution
 // tetrahedral meshes: an analysis and a comparison"): tets against the error
 // threshold for uniform, box and isovalue queries, isosurface sizes, shape
-// quality, storage and extraction times; and their JSON, CSV and SVG forms.
+// quality, storage and extraction times; and their JSON and text forms.
+// Works on a model already in memory (trusted); never reads files.
+#include <array>
+#include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "lod_model.hpp"
 #include "tetlod/analysis/shape_quality.hpp"
+#include "tetlod/models/lod_model.hpp"
 
-namespace tetlod::cli {
+namespace tetlod {
 
 struct StatsOptions {
     /// Error thresholds as fractions of the value range.
@@ -49,15 +53,11 @@ struct ModelStats {
 };
 
 /// Runs every query on `model`. Deterministic apart from the times.
-ModelStats measure_model(const LodModel& model, const std::string& name, const StatsOptions& options);
+ModelStats measure_model(const LodModel& model, const std::string& name, const StatsOptions& options = {});
 
+/// One JSON object per model (the `stats --json` document).
 nlohmann::json stats_json(const std::vector<ModelStats>& models);
-/// Plain-text summary for the terminal.
+/// Plain-text summary for a terminal.
 std::string stats_text(const std::vector<ModelStats>& models);
 
-/// Writes the SVG plots and stats.csv into `dir` (created). Returns the file names
-/// written (relative to dir), plots first, with a one-line caption each.
-std::vector<std::pair<std::string, std::string>> write_stats_plots(
-    const std::vector<ModelStats>& models, const std::string& dir, const std::string& dataset);
-
-}  // namespace tetlod::cli
+}  // namespace tetlod

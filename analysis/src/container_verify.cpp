@@ -1,0 +1,126 @@
+// Verification of a .tlod container (see container_verify.hpp). Each stage
+// records what it established before the next runs, so a caller can report
+// exactly how far a damaged file got.
+#include "tetlod/analysis/container_verify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
+
+namespace tetlod {
+
+namespace {
+
+std::string number_text(double v) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char b[32];
+    std::snprintf(b, sizeof b, "%.6g", v);
+    return b;
+}
+
+// Throws tetlod::Error for a failed Expected (turned into the report's failure).
+template <class T>
+T take(Expected<T> e) {
+    return e.take();
+}
+
+void verify_mt(const std::string& path, bool deep, VerifyReport& rep) {
+    auto r = take(tlod::ContainerReader::open(path));
+    const MtModel mt = take(decode_mt_container(r));
+    LodQuery q;
+    q.error_in = 0.0;
+    const TetMesh m0 = mt.extract(q);  // throws CorruptData on an inconsistent MT
+    rep.mt_updates = mt.updates().size();
+    rep.mt_tets_at_error0 = m0.tet_count();
+    rep.mt_ok = true;
+    if (!deep) return;
+    LodQuery full;
+    full.full = true;
+    const Dims dd = mt.field().dims;
+    const uint64_t want = 5 * uint64_t(dd.x - 1) * uint64_t(dd.y - 1) * uint64_t(dd.z - 1);
+    const uint64_t got = mt.extract(full).tet_count();
+    if (got != want)
+        throw Error(ErrorCode::CorruptData, path + ": the MT's full mesh has " + std::to_string(got) +
+                                                " tets, the reference mesh " + std::to_string(want));
+    rep.mt_reference_tets = want;
+    rep.mt_deep_ok = true;
+}
+
+// Every stored diamond error bound must be at least the exact error recomputed
+// from the decoded field.
+void verify_ht_bounds(const std::string& path, HtDecoded& d, VerifyReport& rep) {
+    HtBuildOptions bo;
+    bo.pad = d.layout.domain.padded;
+    Volume v;
+    if (d.layout.domain.padded) {
+        auto r2 = take(tlod::ContainerReader::open(path));
+        v = take(decode_volume(r2));
+    } else {
+        v = d.field;
+    }
+    const HtModel m = HtModel::build(std::move(v), bo);
+    const auto& truth = m.diamond_errors();
+    if (truth.size() != d.errors.size())
+        throw Error(ErrorCode::CorruptData, path + ": recomputed model has a different size");
+    uint64_t bad = 0, first = 0;
+    double worst_ratio = 1.0;
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+        const float t = truth[i], s = d.errors[i];
+        if (!(s >= t) && !std::isnan(t)) {
+            if (bad++ == 0) first = i;
+        } else if (t > 0 && std::isfinite(s)) {
+            worst_ratio = std::max(worst_ratio, double(s) / double(t));
+        }
+    }
+    if (bad) {
+        const Dims dd = d.field.dims;
+        throw Error(ErrorCode::CorruptData,
+                    path + ": " + std::to_string(bad) +
+                        " stored error bounds are below the recomputed errors (first at (" +
+                        std::to_string(first % dd.x) + "," + std::to_string(first / dd.x % dd.y) + "," +
+                        std::to_string(first / (dd.x * dd.y)) + "): stored " +
+                        number_text(d.errors[first]) + ", exact " + number_text(truth[first]) + ")");
+    }
+    rep.ht_bounds_checked = truth.size();
+    rep.ht_worst_bound_ratio = worst_ratio;
+    rep.ht_deep_ok = true;
+}
+
+void verify(const std::string& path, bool deep, VerifyReport& rep) {
+    auto r = take(tlod::ContainerReader::open(path));
+    // Checksums of every section, known or not.
+    for (std::size_t i = 0; i < r.sections().size(); ++i) take(r.read_stored(i));
+    rep.sections = r.sections().size();
+    rep.checksums_ok = true;
+    rep.has_ht = (r.header().required_features & tlod::kFeatureHt) != 0;
+    rep.has_mt = container_has_mt(r);
+    if (!rep.has_ht && !rep.has_mt) throw Error(ErrorCode::NotFound, path + ": the container holds no model");
+    if (rep.has_mt) verify_mt(path, deep, rep);
+    if (!rep.has_ht) return;
+    // Structure, frames, sizes and code ranges: decode everything.
+    HtDecoded d = take(decode_ht(r));
+    rep.ht_chunks_decoded = d.chunks_decoded;
+    rep.ht_ok = true;
+    if (deep) verify_ht_bounds(path, d, rep);
+}
+
+}  // namespace
+
+VerifyReport verify_container(const std::string& path, bool deep) {
+    VerifyReport rep;
+    rep.path = path;
+    try {
+        verify(path, deep, rep);
+    } catch (const Error& e) {
+        rep.failure = Failure{e.code(), e.what()};
+    }
+    return rep;
+}
+
+}  // namespace tetlod

@@ -1,0 +1,158 @@
+#pragma once
+// .tlod containers: write one from a volume (the HT, the MT or both, with
+// provenance and user metadata), inspect one (what `tetlod info` prints),
+// extract a LOD mesh from one (the HT lazily: only the chunks the query
+// examines are read), and decode one back to its volume.
+//
+// Trust: every reading call (container_models, inspect_container,
+// extract_from_container, decode_container) is safe on untrusted files: a
+// malformed, truncated or hostile file gives an Error (returned, never thrown)
+// whose message names the file; memory stays bounded by the sizes the file
+// declares and the format's limits. write_container works on a trusted
+// in-memory Volume.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/volume.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/format/metadata.hpp"
+#include "tetlod/models/lod_model.hpp"
+#include "tetlod/models/lod_query.hpp"
+
+namespace tetlod {
+
+// ---- writing ----
+
+struct ContainerWriteOptions {
+    bool ht = true, mt = false;  // models to store (at least one)
+    bool pad = false;            // HT: embed the data in the enclosing (2^k+1)^3 cube
+    int zstd_level = 19;         // every section, 1..22
+    int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
+    int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
+    /// Provenance recorded in the metadata: the source file (name, size, XXH64,
+    /// when `source_path` names a readable file), the converter and the time.
+    std::string source_path;
+    std::string converter = "tetlod";
+    /// Called as (stage, done, total) while building and encoding: "build MT",
+    /// "built MT", "build HT", "built HT", "encoded HT" (done = total = 0), and
+    /// "encode HT" after each chunk (done of total chunks).
+    std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
+};
+
+struct ContainerWriteSummary {
+    uint64_t bytes = 0;                   // size of the container written (0 for "-")
+    int ht_k = -1, ht_max_level = -1;     // HT: L = 2^k, levels 0..max_level (-1: no HT)
+    uint64_t mt_updates = 0, mt_base_tets = 0;
+    double seconds = 0;
+};
+
+/// Builds the requested models of `volume` (moved in; user metadata from
+/// volume.metadata) and writes them to `path` atomically ("-": standard output).
+/// Throws tetlod::Error: InvalidArgument for bad options, IoError naming `path`.
+ContainerWriteSummary write_container(Volume volume, const std::string& path,
+                                      const ContainerWriteOptions& options = {});
+
+// ---- inspecting ----
+
+/// Which models a container holds; both false when it cannot be opened (the
+/// reader used next reports why). Reads only the header and section table.
+struct ContainerModels {
+    bool ht = false, mt = false;
+};
+ContainerModels container_models(const std::string& path);
+
+/// True when `path` names a .tlod container: its first bytes are the container
+/// magic, or (missing or unreadable) it ends in ".tlod".
+bool is_container_path(const std::string& path);
+
+struct HtCycleInfo {
+    int cycle = 0;
+    std::string levels;  // "corners" or "L0..L2"
+    uint64_t chunks = 0, points = 0, field_bytes = 0, error_bytes = 0, raw_bytes = 0;
+};
+struct HtInfo {
+    int k = 0;
+    int32_t L = 1;
+    std::array<int32_t, 3> box_max{0, 0, 0};
+    bool padded = false;
+    int max_level = 0;
+    int brick_log2 = 0, error_mantissa_bits = 0;
+    uint64_t section_bytes = 0;
+    std::vector<HtCycleInfo> cycles;  // coarsest (cycle k) first
+};
+struct MtInfo {
+    uint32_t base_tets = 0, updates = 0;
+    int error_mantissa_bits = 0;
+    bool field_from_ht = false;  // the MT shares the HT's field sections
+    uint64_t header_bytes = 0, structure_bytes = 0, section_bytes = 0;
+};
+/// Everything `tetlod info` shows: header, metadata, models, section table.
+struct ContainerInfo {
+    std::string path;
+    tlod::Header header;
+    tlod::Metadata metadata;  // of the HT when present, else of the MT
+    std::optional<HtInfo> ht;
+    std::optional<MtInfo> mt;
+    std::vector<tlod::SectionInfo> sections;
+    uint64_t bytes_read = 0;  // bytes the inspection read from the file
+    /// A format key of the metadata, empty when absent.
+    std::string format_key(const std::string& key) const;
+};
+/// Reads the header, table and model headers (no field data). A container
+/// holding no model is a NotFound error.
+Expected<ContainerInfo> inspect_container(const std::string& path);
+
+// ---- extracting ----
+
+/// Sets the query's thresholds once the container's value range is known
+/// (e.g. thresholds given as a percentage of the range).
+using ThresholdResolver = std::function<void(LodQuery& query, const std::array<double, 2>& range)>;
+
+struct ContainerExtract {
+    TetMesh mesh;
+    ModelKind model = ModelKind::Ht;
+    Dims dims;                 // of the data, as the metadata gives them
+    ValueType type = ValueType::U8;
+    std::array<double, 2> range{0, 0};
+    LodQuery query;            // as resolved
+    double seconds = 0;        // open + read + extract
+    // HT (lazy): the largest error of the mesh, what was read.
+    double max_error = 0;
+    uint64_t bytes_read = 0, file_size = 0;
+    uint64_t chunks_decoded = 0, chunks_total = 0, passes = 0;
+    // MT: vertex splits of the model, and where its field came from.
+    uint64_t mt_updates = 0;
+    bool mt_field_from_ht = false;
+};
+
+/// The mesh of `query` from the container's `model`: the HT lazily (only the
+/// chunks the query examines are read and decoded), the MT decoded whole.
+/// `resolve` (optional) fills the thresholds from the value range first.
+Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model,
+                                                  LodQuery query,
+                                                  const ThresholdResolver& resolve = {});
+
+// ---- decoding ----
+
+/// The volume a container stores, bit-exact: same value type, spacing, origin,
+/// field name, units and user metadata (from the HT's field, or an MT-only
+/// container's MT field).
+Expected<Volume> decode_container(const std::string& path);
+
+/// A container's stored `model` together with the volume it stores, decoding
+/// the field once (what open_model + decode_container would give). An MT request
+/// on a container without one is a NotFound error naming the file.
+struct StoredModel {
+    LodModel model;
+    Volume volume;
+};
+Expected<StoredModel> open_stored_model(const std::string& path, ModelKind model);
+
+}  // namespace tetlod

@@ -1,0 +1,96 @@
+// The volume a container stores, bit-exact, alone or with the stored model
+// (see container.hpp).
+#include <algorithm>
+#include <filesystem>
+
+#include "tetlod/analysis/stopwatch.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/container.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
+
+namespace tetlod {
+
+namespace {
+
+// An MT-only container's volume: its MT's field, described by the metadata
+// (spacing, origin, field name, units, user keys).
+Volume described_mt_field(const MtModel& mt, const tlod::Metadata& meta) {
+    Volume v = mt.field();
+    v.spacing = meta.spacing;
+    v.origin = meta.origin;
+    v.field_name = meta.field_name();
+    v.units = meta.units();
+    for (const auto& [k, val] : meta.user_keys) v.metadata[k] = val;
+    return v;
+}
+
+// The original (unpadded) volume out of a decoded HT field, with its description.
+Volume crop(const Volume& f, const Dims& src) {
+    Volume out = Volume::allocate(src, f.type);
+    const std::size_t w = value_size(f.type);
+    for (int64_t z = 0; z < src.z; ++z)
+        for (int64_t y = 0; y < src.y; ++y)
+            std::copy_n(f.data.data() + std::size_t(f.dims.index(0, y, z)) * w, std::size_t(src.x) * w,
+                        out.data.data() + std::size_t(src.index(0, y, z)) * w);
+    out.spacing = f.spacing;
+    out.origin = f.origin;
+    out.field_name = f.field_name;
+    out.units = f.units;
+    out.metadata = f.metadata;
+    return out;
+}
+
+Expected<StoredModel> stored_mt(tlod::ContainerReader& r) {
+    auto layout = read_mt_layout(r);
+    if (!layout) return layout.failure();
+    auto mt = decode_mt_container(r);
+    if (!mt) return mt.failure();
+    auto shared = std::make_shared<const MtModel>(std::move(*mt));
+    StoredModel s{make_lod_model(shared), described_mt_field(*shared, layout->metadata)};
+    s.model.stored_what = ".tlod file (all models in it)";
+    return s;
+}
+
+Expected<StoredModel> stored_ht(tlod::ContainerReader& r) {
+    auto d = decode_ht(r);
+    if (!d) return d.failure();
+    Volume original = crop(d->field, d->layout.metadata.dims);
+    auto ht = std::make_shared<const HtModel>(
+        HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors)));
+    StoredModel s{make_lod_model(ht), std::move(original)};
+    s.model.stored_what = ".tlod file";
+    return s;
+}
+
+}  // namespace
+
+Expected<Volume> decode_container(const std::string& path) {
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) return r.failure();
+    const bool has_ht = (r->header().required_features & tlod::kFeatureHt) != 0;
+    if (!has_ht && container_has_mt(*r)) {
+        auto layout = read_mt_layout(*r);
+        if (!layout) return layout.failure();
+        auto mt = decode_mt_container(*r);
+        if (!mt) return mt.failure();
+        return described_mt_field(*mt, layout->metadata);
+    }
+    return decode_volume(*r);
+}
+
+Expected<StoredModel> open_stored_model(const std::string& path, ModelKind model) {
+    Stopwatch clock;
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) return r.failure();
+    auto s = model == ModelKind::Mt ? stored_mt(*r) : stored_ht(*r);
+    if (!s) return s;
+    s->model.build_seconds = clock.seconds();
+    std::error_code ec;
+    s->model.stored_bytes = std::filesystem::file_size(path, ec);
+    s->model.from_container = true;
+    return s;
+}
+
+}  // namespace tetlod

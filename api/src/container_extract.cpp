@@ -1,0 +1,75 @@
+// A LOD mesh out of a container: the HT lazily, the MT decoded whole (see
+// container.hpp).
+#include <filesystem>
+
+#include "tetlod/analysis/stopwatch.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/container.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
+
+namespace tetlod {
+
+namespace {
+
+Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerReader& r, LodQuery query,
+                                      const ThresholdResolver& resolve, const Stopwatch& clock) {
+    if (!container_has_mt(r))
+        return fail(ErrorCode::NotFound, "'" + path + "': --model mt: the container holds no MT "
+                                         "(write one with `tetlod convert IN OUT.tlod --model ht,mt`)");
+    auto layout = read_mt_layout(r);
+    if (!layout) return layout.failure();
+    auto model = decode_mt_container(r);
+    if (!model) return model.failure();
+    ContainerExtract x;
+    x.model = ModelKind::Mt;
+    x.dims = layout->metadata.dims;
+    x.type = layout->metadata.type;
+    x.range = layout->metadata.value_range;
+    if (resolve) resolve(query, x.range);
+    x.query = query;
+    try {
+        x.mesh = model->extract(query);  // throws CorruptData on an inconsistent MT
+    } catch (const Error& e) {
+        return fail(e.code(), e.what());
+    }
+    x.seconds = clock.seconds();
+    x.mt_updates = model->updates().size();
+    x.mt_field_from_ht = layout->with_ht;
+    return x;
+}
+
+}  // namespace
+
+Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model, LodQuery query,
+                                                  const ThresholdResolver& resolve) {
+    Stopwatch clock;
+    auto r = tlod::ContainerReader::open(path);
+    if (!r) return r.failure();
+    if (model == ModelKind::Mt) return extract_mt(path, *r, std::move(query), resolve, clock);
+    auto layout = read_ht_layout(*r);
+    if (!layout) return layout.failure();
+    ContainerExtract x;
+    x.model = ModelKind::Ht;
+    x.dims = layout->metadata.dims;
+    x.type = layout->metadata.type;
+    x.range = layout->metadata.value_range;
+    if (resolve) resolve(query, x.range);
+    x.query = query;
+    HtExtractStats stats;
+    HtLazyStats lazy;
+    auto mesh = extract_ht_lazy(*r, query, &stats, &lazy);
+    if (!mesh) return mesh.failure();
+    x.mesh = std::move(*mesh);
+    x.seconds = clock.seconds();
+    x.max_error = stats.max_error;
+    x.bytes_read = lazy.bytes_read;
+    x.chunks_decoded = lazy.chunks_decoded;
+    x.chunks_total = lazy.chunks_total;
+    x.passes = lazy.passes;
+    std::error_code ec;
+    x.file_size = std::filesystem::file_size(path, ec);
+    return x;
+}
+
+}  // namespace tetlod

@@ -1,0 +1,103 @@
+// A volume -> a .tlod container holding its HT, its MT or both, with
+// provenance metadata (see container.hpp).
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <optional>
+
+#include "tetlod/analysis/stopwatch.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/container.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/mt/mt_model.hpp"
+
+namespace tetlod {
+
+namespace {
+
+std::string utc_now() {
+    std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char b[32];
+    std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return b;
+}
+
+tlod::Metadata provenance_metadata(const Volume& v, const ContainerWriteOptions& o) {
+    tlod::Metadata meta = tlod::metadata_for_volume(v);
+    if (!o.source_path.empty()) {
+        meta.format_keys[tlod::kKeySourceName] = std::filesystem::path(o.source_path).filename().string();
+        if (auto h = tlod::checksum64_file(o.source_path)) {
+            char b[24];
+            std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(*h));
+            meta.format_keys[tlod::kKeySourceXxh64] = b;
+            meta.format_keys[tlod::kKeySourceSize] = std::to_string(std::filesystem::file_size(o.source_path));
+        }
+    }
+    meta.format_keys[tlod::kKeyConverter] = o.converter;
+    meta.format_keys[tlod::kKeyToolVersion] = TETLOD_VERSION_STRING;
+    meta.format_keys[tlod::kKeyCreated] = utc_now();
+    return meta;
+}
+
+void check_range(const char* what, int value, int lo, int hi) {
+    if (value < lo || value > hi)
+        throw Error(ErrorCode::InvalidArgument, std::string(what) + " " + std::to_string(value) +
+                                                    ": expected " + std::to_string(lo) + ".." +
+                                                    std::to_string(hi));
+}
+
+}  // namespace
+
+ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
+    if (!o.ht && !o.mt) throw Error(ErrorCode::InvalidArgument, "write_container: no model requested");
+    check_range("zstd level", o.zstd_level, 1, 22);
+    check_range("brick_log2", o.brick_log2, 1, 16);
+    check_range("error bits", o.error_bits, 0, 7);
+    Stopwatch clock;
+    auto progress = [&](const char* stage, std::size_t done, std::size_t total) {
+        if (o.progress) o.progress(stage, done, total);
+    };
+    const tlod::Metadata meta = provenance_metadata(volume, o);
+    ContainerWriteSummary summary;
+    tlod::ContainerWriter w;
+    std::optional<MtModel> mt;
+    if (o.mt) {
+        progress("build MT", 0, 0);
+        mt = MtModel::build(volume);
+        progress("built MT", 0, 0);
+    }
+    if (o.ht) {
+        progress("build HT", 0, 0);
+        HtBuildOptions bo;
+        bo.pad = o.pad;
+        const HtModel model = HtModel::build(std::move(volume), bo);
+        progress("built HT", 0, 0);
+        HtEncodeOptions eo;
+        eo.zstd_level = o.zstd_level;
+        eo.brick_log2 = o.brick_log2;
+        eo.error_mantissa_bits = o.error_bits;
+        if (o.progress)
+            eo.progress = [&](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
+        encode_ht(model, meta, w, eo);
+        progress("encoded HT", 0, 0);
+        summary.ht_k = model.domain().k;
+        summary.ht_max_level = model.domain().max_level();
+    }
+    if (mt) {
+        MtEncodeOptions mo;
+        mo.zstd_level = o.zstd_level;
+        encode_mt_container(*mt, meta, w, o.ht, mo);
+        summary.mt_updates = mt->updates().size();
+        summary.mt_base_tets = mt->base_tets().size();
+    }
+    w.write(path);
+    std::error_code size_error;  // "-" (standard output) has no size
+    summary.bytes = std::filesystem::file_size(path, size_error);
+    summary.seconds = clock.seconds();
+    return summary;
+}
+
+}  // namespace tetlod
