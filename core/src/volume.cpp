@@ -29,7 +29,7 @@ Volume Volume::allocate(Dims dims, ValueType type) {
     Volume v;
     v.dims = dims;
     v.type = type;
-    v.data.assign(static_cast<std::size_t>(dims.count()) * value_size(type), std::byte{0});
+    v.data.resize(static_cast<std::size_t>(dims.count()) * value_size(type));  // zero, untouched
     return v;
 }
 

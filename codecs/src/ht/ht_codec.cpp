@@ -272,7 +272,7 @@ std::vector<std::byte> encode_error_chunk(const Geometry& G, const T* v, const s
 
 /// False when a code is out of range.
 template <class T>
-bool decode_error_chunk(const Geometry& G, const T* v, std::vector<float>& e, const HtChunk& c, int m,
+bool decode_error_chunk(const Geometry& G, const T* v, ZeroedVector<float>& e, const HtChunk& c, int m,
                         const std::byte* raw) {
     const std::size_t n = c.diamonds;
     if (n == 0) return true;
@@ -842,7 +842,7 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, cons
 
 /// False on a malformed stream or a code out of range.
 template <class T>
-bool decode_error_chunk_v2(const Geometry& G, const T* v, std::vector<float>& e, const HtChunk& c, int m,
+bool decode_error_chunk_v2(const Geometry& G, const T* v, ZeroedVector<float>& e, const HtChunk& c, int m,
                            std::span<const std::byte> in) {
     if (c.diamonds == 0) return in.empty();
     auto models = std::make_unique<ErrorModels>();
@@ -1136,7 +1136,7 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want) {
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
 Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
-                                 std::vector<char>& done, Volume& field, std::vector<float>* errors) {
+                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors) {
     const Geometry G = geometry_of(L.domain, L.brick_log2);
     const int m = L.error_mantissa_bits;
     uint64_t decoded = 0;
@@ -1244,22 +1244,35 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
         want[i] = meet;
     }
     add_dependencies(L, want);
+    // Field and errors start as untouched zero pages (ZeroedVector): a file that
+    // fails in its first chunks costs only the pages decoded so far, not the grid
+    // its header claims. Cube corners are not diamonds: their error stays 0.
     Volume field;
+    ZeroedVector<float> errors;
     try {
         field = Volume::allocate(L.domain.dims(), L.metadata.type);
-        if (req.errors)
-            out.errors.assign(std::size_t(field.count()), std::numeric_limits<float>::infinity());
+        if (req.errors) errors.resize(std::size_t(field.count()));
     } catch (const std::bad_alloc&) {
         return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
     } catch (const Error& e) {
         return fail(e.code(), r.name() + ": " + e.what());
     }
-    if (req.errors)  // cube corners are not diamonds
-        G.for_each_point(G.k, {0, 0, 0, G.box_max[0], G.box_max[1], G.box_max[2]},
-                         [&](int64_t x, int64_t y, int64_t z) { out.errors[G.index(x, y, z)] = 0.0f; });
-    auto n = decode_chunks(r, L, want, done, field, req.errors ? &out.errors : nullptr);
+    auto n = decode_chunks(r, L, want, done, field, req.errors ? &errors : nullptr);
     if (!n) return n.failure();
     out.chunks_decoded = *n;
+    if (req.errors) {
+        // Diamonds of chunks left out of the request have no bound: +inf.
+        for (std::size_t i = 0; i < L.chunks.size(); ++i)
+            if (!done[i])
+                G.for_each_point(L.chunks[i].cycle, L.chunks[i].box, [&](int64_t x, int64_t y, int64_t z) {
+                    errors[G.index(x, y, z)] = std::numeric_limits<float>::infinity();
+                });
+        try {
+            out.errors.assign(errors.begin(), errors.end());
+        } catch (const std::bad_alloc&) {
+            return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded errors");
+        }
+    }
     restore_metadata(field, L.metadata);
     out.field = std::move(field);
     return out;
@@ -1273,12 +1286,13 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
     const Geometry G = geometry_of(L.domain, L.brick_log2);
     std::vector<char> want(L.chunks.size(), 0), done(L.chunks.size(), 0);
     Volume field;
-    std::vector<float> errors;
+    ZeroedVector<float> errors;
     try {
+        // Untouched zero pages until decoded (see decode_ht). Undecoded diamonds
+        // read as error 0 ("fine"): the refinement then stops at them, and the
+        // check below finds every such stop and loads it.
         field = Volume::allocate(L.domain.dims(), L.metadata.type);
-        // Undecoded diamonds read as error 0 ("fine"): the refinement then stops
-        // at them, and the check below finds every such stop and loads it.
-        errors.assign(std::size_t(field.count()), 0.0f);
+        errors.resize(std::size_t(field.count()));
     } catch (const std::bad_alloc&) {
         return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded field");
     } catch (const Error& e) {
@@ -1310,7 +1324,7 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
         ++st.passes;
         HtModel model;
         try {
-            model = HtModel::from_parts(field, L.domain, errors);
+            model = HtModel::from_parts(field, L.domain, std::vector<float>(errors.begin(), errors.end()));
         } catch (const Error& e) {
             return fail(e.code(), r.name() + ": " + e.what());
         }

@@ -105,7 +105,7 @@ void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& 
 
 /// Grows `buf` so it holds at least `need` bytes, geometrically but never past
 /// `cap` (the size the header declares): memory follows the data produced.
-void grow_to(std::vector<std::byte>& buf, uint64_t need, uint64_t cap) {
+void grow_to(ZeroedVector<std::byte>& buf, uint64_t need, uint64_t cap) {
     if (need <= buf.size()) return;
     if (need > buf.capacity())
         buf.reserve(static_cast<std::size_t>(std::min<uint64_t>(cap, std::max<uint64_t>(need, 2 * buf.capacity()))));
@@ -114,7 +114,7 @@ void grow_to(std::vector<std::byte>& buf, uint64_t need, uint64_t cap) {
 
 /// Inflates `bytes` samples of one piece and appends them to `out` (whose final
 /// size is `cap`), growing it only as the stream yields data.
-void inflate_piece(std::FILE* f, const DataPiece& piece, std::vector<std::byte>& out, uint64_t bytes,
+void inflate_piece(std::FILE* f, const DataPiece& piece, ZeroedVector<std::byte>& out, uint64_t bytes,
                    uint64_t cap, const std::string& what) {
     z_stream zs{};
     if (inflateInit2(&zs, 15 + 32) != Z_OK)

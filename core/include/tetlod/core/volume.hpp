@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tetlod/core/value_type.hpp"
+#include "tetlod/core/zeroed_allocator.hpp"
 
 namespace tetlod {
 
@@ -33,7 +34,8 @@ struct Volume {
     Dims dims;
     ValueType type = ValueType::U8;
     /// Values in host (little-endian) byte order, dims.count() * value_size(type) bytes.
-    std::vector<std::byte> data;
+    /// Fresh storage is zero and committed only where written (zeroed_allocator.hpp).
+    ZeroedVector<std::byte> data;
     Vec3 spacing{1.0, 1.0, 1.0};
     Vec3 origin{0.0, 0.0, 0.0};
     std::string field_name = "value";
@@ -43,7 +45,8 @@ struct Volume {
     std::map<std::string, std::string> metadata;
 
     /// Allocates zeroed storage for dims x type (throws tetlod::Error if the dims are
-    /// invalid or too large).
+    /// invalid or too large). Pages are committed as they are written, so a decoder
+    /// that fails early has cost only what it wrote.
     static Volume allocate(Dims dims, ValueType type);
 
     int64_t count() const { return dims.count(); }
