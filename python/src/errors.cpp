@@ -1,0 +1,28 @@
+// tetlod::Error (a bad file, a bad argument) surfaces in Python as tetlod.Error,
+// a RuntimeError whose message names the file and the problem, with the error
+// code's name in `.code` (e.g. "Truncated", "NotFound").
+#include "bindings.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace py = pybind11;
+
+namespace tetlod::python {
+
+void bind_errors(py::module_& m) {
+    // Leaked on purpose: the exception type lives as long as the interpreter.
+    static py::handle error_type = py::exception<Error>(m, "Error", PyExc_RuntimeError).release();
+    m.attr("Error").attr("__doc__") =
+        "A tetlod failure: the message names the file and the problem; .code names the kind "
+        "(InvalidArgument, IoError, Truncated, BadMagic, CorruptData, NotFound, NotBuilt, ...).";
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const Error& e) {
+            py::object instance = py::reinterpret_borrow<py::object>(error_type)(e.what());
+            instance.attr("code") = error_code_name(e.code());
+            PyErr_SetObject(error_type.ptr(), instance.ptr());
+        }
+    });
+}
+
+}  // namespace tetlod::python
