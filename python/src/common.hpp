@@ -9,6 +9,7 @@
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/models/lod_model.hpp"

@@ -7,6 +7,30 @@
 namespace py = pybind11;
 
 namespace tetlod::python {
+namespace {
+
+/// The code as a Python identifier (error_code_name gives prose, "I/O error").
+/// No default: -Wswitch flags a code added to ErrorCode and missing here.
+const char* code_identifier(ErrorCode code) {
+    switch (code) {
+        case ErrorCode::Ok: return "Ok";
+        case ErrorCode::InvalidArgument: return "InvalidArgument";
+        case ErrorCode::IoError: return "IoError";
+        case ErrorCode::Truncated: return "Truncated";
+        case ErrorCode::BadMagic: return "BadMagic";
+        case ErrorCode::UnsupportedVersion: return "UnsupportedVersion";
+        case ErrorCode::UnsupportedFeature: return "UnsupportedFeature";
+        case ErrorCode::ChecksumMismatch: return "ChecksumMismatch";
+        case ErrorCode::CorruptData: return "CorruptData";
+        case ErrorCode::SizeMismatch: return "SizeMismatch";
+        case ErrorCode::TooLarge: return "TooLarge";
+        case ErrorCode::NotFound: return "NotFound";
+        case ErrorCode::NotBuilt: return "NotBuilt";
+    }
+    return "Unknown";
+}
+
+}  // namespace
 
 void bind_errors(py::module_& m) {
     // Leaked on purpose: the exception type lives as long as the interpreter.
@@ -19,7 +43,7 @@ void bind_errors(py::module_& m) {
             if (p) std::rethrow_exception(p);
         } catch (const Error& e) {
             py::object instance = py::reinterpret_borrow<py::object>(error_type)(e.what());
-            instance.attr("code") = error_code_name(e.code());
+            instance.attr("code") = code_identifier(e.code());
             PyErr_SetObject(error_type.ptr(), instance.ptr());
         }
     });

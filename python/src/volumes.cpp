@@ -33,7 +33,7 @@ ValueType value_type_of_dtype(const py::dtype& dtype) {
     for (ValueType t : types)
         if (numpy_dtype(t).equal(dtype)) return t;
     throw Error(ErrorCode::InvalidArgument,
-                "array dtype " + std::string(py::str(dtype)) +
+                "array dtype " + dtype.attr("name").cast<std::string>() +
                     ": expected uint8, int8, uint16, int16, uint32, int32, float32 or float64");
 }
 
