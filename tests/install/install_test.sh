@@ -18,9 +18,10 @@ for f in bin/tetlod lib/cmake/tetlod/tetlodConfig.cmake lib/cmake/tetlod/tetlodC
 done
 
 step "the installed CLI needs nothing from the build tree"
-if ldd "$prefix/bin/tetlod" | grep -e "not found" -e "$build"; then
+if ldd "$prefix/bin/tetlod" | grep -v "=> $prefix/" | grep -e "not found" -e "$build"; then
   echo "bin/tetlod resolves libraries outside the prefix (above)"; exit 1
 fi
+readelf -d "$prefix/bin/tetlod" | grep -E "RUNPATH|RPATH"
 "$prefix/bin/tetlod" --version
 "$prefix/bin/tetlod" -q sample sphere "$work/sphere.raw" --size 17
 "$prefix/bin/tetlod" -q convert "$work/sphere.raw" "$work/sphere.tlod" --dims 17,17,17 --dtype u8
