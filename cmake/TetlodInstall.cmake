@@ -12,7 +12,6 @@ set(TETLOD_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/tetlod)
 set(TETLOD_EXPORTED_TARGETS tetlod tetlod_analysis tetlod_codecs tetlod_models tetlod_format
   tetlod_volume_formats tetlod_vdb_io tetlod_hdf5_io tetlod_volume_io tetlod_mesh_io
   tetlod_surface_io tetlod_core)
-list(FILTER TETLOD_EXPORTED_TARGETS INCLUDE REGEX ".")
 set(_tetlod_present)
 foreach(target IN LISTS TETLOD_EXPORTED_TARGETS)
   if(TARGET ${target})

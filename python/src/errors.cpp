@@ -35,6 +35,7 @@ const char* code_identifier(ErrorCode code) {
 void bind_errors(py::module_& m) {
     // Leaked on purpose: the exception type lives as long as the interpreter.
     static py::handle error_type = py::exception<Error>(m, "Error", PyExc_RuntimeError).release();
+    m.attr("Error").attr("__module__") = "tetlod";
     m.attr("Error").attr("__doc__") =
         "A tetlod failure: the message names the file and the problem; .code names the kind "
         "(InvalidArgument, IoError, Truncated, BadMagic, CorruptData, NotFound, NotBuilt, ...).";
