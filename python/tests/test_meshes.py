@@ -119,3 +119,14 @@ def test_concurrent_extracts_release_the_gil(container):
     for t in threads:
         t.join()
     assert results == [model.extract(error=f"{i + 1}%").tet_count for i in range(4)]
+
+
+def test_mt_only_container_defaults_to_the_mt(volume, work):
+    path = str(work / "mt_only.tlod")
+    summary = tetlod.convert(volume[0], path, ht=False, mt=True)
+    assert summary["mt_updates"] > 0
+    assert tetlod.models(path) == ["mt"]
+    assert tetlod.open(path).kind == "MT"
+    assert tetlod.extract(path, error="2%").model == "MT"
+    with pytest.raises(tetlod.Error, match="mt_only.tlod"):
+        tetlod.extract(path, model="ht", error=0)
