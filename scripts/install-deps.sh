@@ -13,7 +13,7 @@ PACKAGES=(
   libopenmesh-dev
   clang libclang-rt-14-dev
   python3 python3-numpy python3-vtk9 python3-meshio python3-h5py gmsh
-  pybind11-dev python3-pytest
+  pybind11-dev python3-dev python3-pytest
 )
 
 missing=()

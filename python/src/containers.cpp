@@ -1,0 +1,134 @@
+// .tlod containers from Python: what one holds (info, models), writing one from
+// a volume file (convert), and decoding its volume back (decode).
+#include <string>
+
+#include "bindings.hpp"
+#include "common.hpp"
+#include "tetlod/container.hpp"
+#include "tetlod/converters/volume_formats.hpp"
+#include "tetlod/core/value_type.hpp"
+#include "tetlod/model.hpp"
+
+namespace py = pybind11;
+
+namespace tetlod::python {
+namespace {
+
+py::dict info_dict(const ContainerInfo& info) {
+    py::dict d;
+    d["path"] = info.path;
+    d["format_version"] = std::to_string(info.header.version_major) + "." +
+                          std::to_string(info.header.version_minor);
+    d["file_size"] = info.header.file_size;
+    d["bytes_read"] = info.bytes_read;
+    const auto& meta = info.metadata;
+    d["dims"] = py::make_tuple(meta.dims.x, meta.dims.y, meta.dims.z);
+    d["dtype"] = value_type_name(meta.type);
+    d["spacing"] = py::make_tuple(meta.spacing[0], meta.spacing[1], meta.spacing[2]);
+    d["origin"] = py::make_tuple(meta.origin[0], meta.origin[1], meta.origin[2]);
+    d["range"] = py::make_tuple(meta.value_range[0], meta.value_range[1]);
+    d["field_name"] = meta.field_name();
+    d["units"] = meta.units();
+    d["metadata"] = meta.user_keys;
+    d["format_keys"] = meta.format_keys;
+    py::list models;
+    if (info.ht) {
+        models.append("ht");
+        py::dict ht;
+        ht["k"] = info.ht->k;
+        ht["max_level"] = info.ht->max_level;
+        ht["padded"] = info.ht->padded;
+        ht["brick_log2"] = info.ht->brick_log2;
+        ht["error_mantissa_bits"] = info.ht->error_mantissa_bits;
+        ht["section_bytes"] = info.ht->section_bytes;
+        d["ht"] = ht;
+    }
+    if (info.mt) {
+        models.append("mt");
+        py::dict mt;
+        mt["base_tets"] = info.mt->base_tets;
+        mt["updates"] = info.mt->updates;
+        mt["field_from_ht"] = info.mt->field_from_ht;
+        mt["section_bytes"] = info.mt->section_bytes;
+        d["mt"] = mt;
+    }
+    d["models"] = models;
+    d["sections"] = info.sections.size();
+    return d;
+}
+
+py::dict convert(const std::string& input, const std::string& output, bool ht, bool mt, bool pad,
+                 int zstd_level, py::kwargs kwargs) {
+    const VolumeReadOptions read = read_options(kwargs);
+    ContainerWriteOptions options;
+    options.ht = ht;
+    options.mt = mt;
+    options.pad = pad;
+    options.zstd_level = zstd_level;
+    options.source_path = input;
+    options.converter = "tetlod (Python)";
+    ContainerWriteSummary summary;
+    {
+        py::gil_scoped_release release;
+        Volume volume = read_volume_file(input, read).take();
+        summary = write_container(std::move(volume), output, options);
+    }
+    py::dict d;
+    d["path"] = output;
+    d["bytes"] = summary.bytes;
+    d["seconds"] = summary.seconds;
+    if (summary.ht_k >= 0) {
+        d["ht_k"] = summary.ht_k;
+        d["ht_max_level"] = summary.ht_max_level;
+    }
+    if (mt) {
+        d["mt_updates"] = summary.mt_updates;
+        d["mt_base_tets"] = summary.mt_base_tets;
+    }
+    return d;
+}
+
+}  // namespace
+
+void bind_containers(py::module_& m) {
+    m.def(
+        "info",
+        [](const std::string& path) {
+            ContainerInfo info = [&] {
+                py::gil_scoped_release release;
+                return inspect_container(path).take();
+            }();
+            return info_dict(info);
+        },
+        py::arg("path"),
+        "What a .tlod container holds: dims, dtype, range, metadata, models ('ht', 'mt') and "
+        "their headers. Reads no field data; safe on untrusted files.");
+    m.def(
+        "models",
+        [](const std::string& path) {
+            const ContainerModels models = container_models(path);
+            py::list out;
+            if (models.ht) out.append("ht");
+            if (models.mt) out.append("mt");
+            return out;
+        },
+        py::arg("path"), "The models a container holds (empty when it cannot be opened).");
+    m.def("is_container", &is_container_path, py::arg("path"),
+          "True when path names a .tlod container (by its first bytes, or its extension).");
+    m.def("convert", &convert, py::arg("input"), py::arg("output"), py::arg("ht") = true,
+          py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = 19,
+          "Converts a volume file into a .tlod container holding the HT and/or the MT "
+          "(lossless field). Volume keywords as for read_volume. Returns a summary dict.");
+    m.def(
+        "decode",
+        [](const std::string& path) {
+            Volume volume = [&] {
+                py::gil_scoped_release release;
+                return decode_container(path).take();
+            }();
+            return volume_array(std::move(volume));
+        },
+        py::arg("path"), "The volume a container stores (bit-exact), as a numpy array [z, y, x].");
+}
+
+}  // namespace tetlod::python

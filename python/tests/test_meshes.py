@@ -1,0 +1,132 @@
+"""Meshes as numpy arrays: shapes, valid indices, no copies, and the same mesh
+the command line writes."""
+import filecmp
+import gc
+import threading
+
+import numpy as np
+import pytest
+import tetlod
+
+
+def check_mesh(mesh):
+    n, m = mesh.vertex_count, mesh.tet_count
+    assert m > 0
+    assert mesh.points.shape == (n, 3) and mesh.points.dtype == np.int32
+    assert mesh.tets.shape == (m, 4) and mesh.tets.dtype == np.uint32
+    assert mesh.values.shape == (n,) and mesh.values.dtype == np.float64
+    assert mesh.error.shape == (m,) and mesh.error.dtype == np.float32
+    assert mesh.level.shape == (m,)
+    assert int(mesh.tets.max()) < n
+    assert len(np.unique(mesh.tets)) == n  # every vertex is used
+    assert mesh.world_points().shape == (n, 3)
+
+
+@pytest.mark.parametrize("model", ["ht", "mt"])
+def test_extract_from_container(container, model):
+    mesh = tetlod.extract(container, model=model, error="5%")
+    check_mesh(mesh)
+    assert mesh.model == model.upper()
+    lo, hi = mesh.range
+    assert float(mesh.error.max()) <= 0.05 * (hi - lo) + 1e-6
+    full = tetlod.extract(container, model=model, full=True)
+    assert full.tet_count >= mesh.tet_count
+
+
+@pytest.mark.parametrize("model", ["ht", "mt"])
+def test_extract_from_volume_matches_container(volume, container, model):
+    a = tetlod.extract(volume[0], model=model, error=3.0)
+    b = tetlod.extract(container, model=model, error=3.0)
+    check_mesh(a)
+    np.testing.assert_array_equal(a.points, b.points)
+    np.testing.assert_array_equal(a.tets, b.tets)
+    np.testing.assert_array_equal(a.values, b.values)
+
+
+def test_region_queries(container):
+    box = tetlod.extract(container, error=-1, error_out="inf", box=(0, 0, 0, 4, 4, 4))
+    check_mesh(box)
+    iso = tetlod.extract(container, error=0, isovalues=[100.0])
+    check_mesh(iso)
+    with pytest.raises(tetlod.Error, match="error="):
+        tetlod.extract(container)
+
+
+def test_arrays_are_views_that_keep_the_mesh_alive(container):
+    mesh = tetlod.extract(container, error="2%")
+    first, second = mesh.points, mesh.points
+    assert np.shares_memory(first, second)  # no copy per access
+    assert not first.flags.writeable
+    expected = np.array(mesh.tets)
+    tets = mesh.tets
+    del mesh, first, second
+    gc.collect()
+    np.testing.assert_array_equal(tets, expected)
+
+
+def test_extract_equals_the_cli_output(container, cli, work):
+    cli_out = str(work / "cli.vtu")
+    cli("extract", container, cli_out, "--error", "1%")
+    mesh = tetlod.extract(container, error="1%")
+    py_out = str(work / "py.vtu")
+    mesh.write(py_out)
+    assert filecmp.cmp(cli_out, py_out, shallow=False)
+    meshio = pytest.importorskip("meshio")
+    back = meshio.read(cli_out)
+    np.testing.assert_allclose(back.points, mesh.world_points())
+    np.testing.assert_array_equal(back.cells_dict["tetra"], mesh.tets)
+
+
+def test_write_mesh_formats(container, work):
+    mesh = tetlod.extract(container, error="5%")
+    for ext in ("vtk", "msh", "mesh"):
+        path = work / f"m.{ext}"
+        tetlod.write_mesh(mesh, str(path))
+        assert path.stat().st_size > 0
+    with pytest.raises(tetlod.Error, match="m.xyz"):
+        mesh.write(str(work / "m.xyz"))
+
+
+def test_isosurface(container):
+    surface = tetlod.isosurface(container, [64.0, 160.0])
+    k = len(surface.triangles)
+    assert k > 0
+    assert surface.triangles.shape == (k, 3)
+    assert surface.points.shape[1] == 3 and np.isfinite(surface.points).all()
+    assert int(surface.triangles.max()) < len(surface.points)
+    assert set(np.unique(surface.face_surface)) <= {0, 1}
+
+
+def test_model_and_stats(volume):
+    model = tetlod.open(volume[0], model="mt")
+    assert model.kind == "MT" and model.dims == (17, 17, 17)
+    check_mesh(model.extract(error="2%"))
+    stats = model.stats(error_fractions=[0.01, 0.1])
+    assert isinstance(stats, dict)
+    assert "MT" in str(stats)
+
+
+def test_concurrent_extracts_release_the_gil(container):
+    model = tetlod.open(container)
+    results = [None] * 4
+
+    def work(i):
+        results[i] = model.extract(error=f"{i + 1}%").tet_count
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert results == [model.extract(error=f"{i + 1}%").tet_count for i in range(4)]
+
+
+def test_mt_only_container_defaults_to_the_mt(volume, work):
+    path = str(work / "mt_only.tlod")
+    summary = tetlod.convert(volume[0], path, ht=False, mt=True)
+    assert summary["mt_updates"] > 0
+    assert tetlod.models(path) == ["mt"]
+    assert tetlod.open(path).kind == "MT"
+    assert tetlod.extract(path, error="2%").model == "MT"
+    with pytest.raises(tetlod.Error, match="mt_only.tlod"):
+        tetlod.extract(path, model="ht", error=0)
