@@ -369,7 +369,7 @@ TEST(HtShapes, QualityOfTheThreeShapes) {
     EXPECT_NEAR(std::sqrt(5.0) / 2, 1.1180340, 1e-7);
 }
 
-// ---- real data from shared/data
+// ---- real data (TETLOD_DATA_DIR, optional)
 
 struct RealCase {
     const char* file;

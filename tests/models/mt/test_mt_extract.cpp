@@ -1,7 +1,7 @@
 // MT builder and selective refinement: every result is checked by the independent
 // brute-force checker of tests/support (conformity, volume, the bound at every grid
 // point), compared with an explicit-DAG oracle that applies the recorded node-space
-// tet history (notes §4.1, §7), and rebuilt for determinism.
+// tet history (spec/mt-model.md §M6), and rebuilt for determinism.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -116,7 +116,7 @@ KeyTet key_of(std::array<std::array<int32_t, 3>, 4> t) {
     return t;
 }
 
-/// Explicit-DAG oracle (notes §4.1, Magillo's MT_IncludeNode): tets are node tuples;
+/// Explicit-DAG oracle (spec/mt-model.md §M6, Magillo's MT_IncludeNode): tets are node tuples;
 /// split k removes after[k] and creates before[k]. A front tet failing its bound
 /// includes the split that removes it, ancestors first.
 std::set<KeyTet> oracle_extract(const MtModel& m, const Volume& vol, const LodQuery& q) {
@@ -328,7 +328,7 @@ TEST(MtExtract, RejectsBadQueries) {
     EXPECT_THROW(m.extract(q2), Error);
 }
 
-// Real data (shared/data): bucky 32^3 and head_mr at a few errors.
+// Real data (TETLOD_DATA_DIR, optional): bucky 32^3 and head_mr at a few errors.
 TEST(MtRealData, BuckyAndHeadMr) {
     struct R {
         const char* file;
@@ -373,7 +373,7 @@ TEST(MtRealData, BuckyAndHeadMr) {
             EXPECT_TRUE(mesh_ok(*vol, mesh, mt_check_options(q, *vol)));
         }
     }
-    if (found == 0) GTEST_SKIP() << "shared/data (bucky_32x32x32_uint8.raw, head_mr_48x62x42_uint8.raw) not found";
+    if (found == 0) GTEST_SKIP() << "real datasets (bucky_32x32x32_uint8.raw, head_mr_48x62x42_uint8.raw) not found";
 }
 
 }  // namespace
