@@ -308,7 +308,7 @@ INSTANTIATE_TEST_SUITE_P(
                       SynthCase{{40, 33, 20}, ValueType::U8, Field::Plateau}),
     [](const ::testing::TestParamInfo<SynthCase>& i) { return case_name(i.param); });
 
-// ---- non-cube domains: the coarsest meshes the notes give
+// ---- non-cube domains: the coarsest meshes of docs/ht.md
 
 TEST(HtDomainRules, CoarsestMeshCounts) {
     struct Case {
