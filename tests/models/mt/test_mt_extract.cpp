@@ -227,6 +227,51 @@ TEST(MtBuild, FullGivesTheReferenceMesh) {
     }
 }
 
+// spec/mt-model.md §M2, written here from the text (not from the library's
+// reference_tets): the full query gives exactly that mesh, positively oriented.
+TEST(MtSpec, FullMeshIsTheSpecReferenceMesh) {
+    for (const Case& c : small_cases()) {
+        SCOPED_TRACE(case_str(c));
+        const MtModel& m = model_of(c);
+        LodQuery q;
+        q.full = true;
+        const TetMesh mesh = m.extract(q);
+        for (const auto& t : mesh.tets) {
+            std::array<std::array<int64_t, 3>, 4> p;
+            for (int i = 0; i < 4; ++i)
+                for (int a = 0; a < 3; ++a) p[i][a] = mesh.points[t[i]][a];
+            std::array<std::array<int64_t, 3>, 3> e;
+            for (int i = 0; i < 3; ++i)
+                for (int a = 0; a < 3; ++a) e[i][a] = p[i + 1][a] - p[0][a];
+            const int64_t det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                                e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                                e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+            EXPECT_GT(det, 0);
+        }
+        std::set<KeyTet> want;
+        const Dims& d = c.dims;
+        for (int32_t k = 0; k + 1 < d.z; ++k)
+            for (int32_t j = 0; j + 1 < d.y; ++j)
+                for (int32_t i = 0; i + 1 < d.x; ++i) {
+                    auto corner = [&](int cc) {
+                        return std::array<int32_t, 3>{i + (cc & 1), j + (cc >> 1 & 1), k + (cc >> 2)};
+                    };
+                    auto even = [&](int cc) {
+                        const auto p = corner(cc);
+                        return (p[0] + p[1] + p[2]) % 2 == 0;
+                    };
+                    std::vector<std::array<int32_t, 3>> central;
+                    for (int cc = 0; cc < 8; ++cc)
+                        if (even(cc)) central.push_back(corner(cc));
+                    ASSERT_EQ(central.size(), 4u);
+                    want.insert(key_of({central[0], central[1], central[2], central[3]}));
+                    for (int cc = 0; cc < 8; ++cc)
+                        if (!even(cc)) want.insert(key_of({corner(cc), corner(cc ^ 1), corner(cc ^ 2), corner(cc ^ 4)}));
+                }
+        EXPECT_EQ(mesh_keys(mesh), want);
+    }
+}
+
 TEST(MtBuild, DecimatesFar) {
     for (const Case& c : small_cases()) {
         SCOPED_TRACE(case_str(c));
