@@ -1,4 +1,4 @@
-// Container size and speed, per dataset of ../shared/data, against (same run):
+// Container size and speed, per real dataset (directory: argument, else $TETLOD_DATA_DIR, else ./data), against (same run):
 // the raw field, zstd -19 of the raw field, and the paper's 14 bytes per point.
 // Then decode throughput against plain zstd decompression of the same bytes,
 // and the bytes read for a coarse LOD and a small full-resolution box on a 257^3
@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -39,7 +40,7 @@ static bool load_raw(const std::filesystem::path& p, Volume& v) {
 }
 
 int main(int argc, char** argv) {
-    std::string dir = "../shared/data";
+    std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : "data";
     bool quick = false;
     for (int i = 1; i < argc; ++i) {
         if (std::string(argv[i]) == "--quick") quick = true;

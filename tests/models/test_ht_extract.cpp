@@ -308,7 +308,7 @@ INSTANTIATE_TEST_SUITE_P(
                       SynthCase{{40, 33, 20}, ValueType::U8, Field::Plateau}),
     [](const ::testing::TestParamInfo<SynthCase>& i) { return case_name(i.param); });
 
-// ---- non-cube domains: the coarsest meshes the notes give
+// ---- non-cube domains: the coarsest meshes of docs/ht.md
 
 TEST(HtDomainRules, CoarsestMeshCounts) {
     struct Case {
@@ -369,7 +369,7 @@ TEST(HtShapes, QualityOfTheThreeShapes) {
     EXPECT_NEAR(std::sqrt(5.0) / 2, 1.1180340, 1e-7);
 }
 
-// ---- real data from shared/data
+// ---- real data (TETLOD_DATA_DIR, optional)
 
 struct RealCase {
     const char* file;

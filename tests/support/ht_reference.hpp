@@ -50,7 +50,7 @@ enum class BoxStatus { Inside, Outside, Crossing };
 BoxStatus classify(const HtTet& t, const Pt& bmax, int k);
 
 /// Number of tets of the diamond centred at c inside [0, 2^k]^3 (from the diamond
-/// classes of the notes: 6 / 4 / 8 interior, fewer on the cube's boundary).
+/// classes of spec/tlod-format.md §2: 6 / 4 / 8 interior, fewer on the cube's boundary).
 int diamond_size_in_cube(const Pt& c, int k);
 
 /// circumradius / shortest edge.
@@ -106,7 +106,7 @@ struct OracleResult {
 class HtOracle {
 public:
     HtOracle(const HtHierarchy& h, const Volume& field);
-    /// Coarsest conforming mesh of the definition (notes sections 5, 6) with
+    /// Coarsest conforming mesh of the definition (spec/ht-model.md §H2-§H3) with
     /// per-diamond errors: exact ones, or model_error(c) for centres in B when given.
     OracleResult extract(const TetBound& eps, const DiamondErrorFn& model_error = {}) const;
 

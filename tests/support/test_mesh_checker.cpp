@@ -260,7 +260,7 @@ TEST(HtReference, ShapeQuality) {
 }
 
 TEST(HtReference, OracleCoarsestMeshCounts) {
-    // counts from the notes (section 6), unbounded error, no padding
+    // counts from docs/ht.md ("Volumes that are not (2^k+1)^3"), unbounded error, no padding
     struct Case {
         Dims dims;
         std::size_t tets;

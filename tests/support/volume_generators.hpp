@@ -1,6 +1,6 @@
 #pragma once
 // Deterministic test volumes of any dims and value type, a padding reference, and a
-// tiny raw-file reader (x fastest, little-endian) for shared/data.
+// tiny raw-file reader (x fastest, little-endian) for the real datasets (TETLOD_DATA_DIR).
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -29,12 +29,13 @@ Volume pad_to_cube(const Volume& v);
 /// Reads a headerless raw file; nullopt if missing or of the wrong size.
 std::optional<Volume> read_raw(const std::string& path, Dims dims, ValueType type);
 
-/// Path of a file in shared/data (TETLOD_SHARED_DATA, defined by tetlod_test targets).
+/// Path of a real dataset (directory TETLOD_SHARED_DATA, defined by tetlod_test targets
+/// from TETLOD_DATA_DIR; relative to the working directory when unset).
 inline std::string shared_data_path(const std::string& name) {
 #ifdef TETLOD_SHARED_DATA
     return std::string(TETLOD_SHARED_DATA) + "/" + name;
 #else
-    return "/work/shared/data/" + name;
+    return name;
 #endif
 }
 

@@ -1,4 +1,4 @@
-// Exact per-diamond errors (shared notes ht.md §3-4).
+// Exact per-diamond errors (spec/tlod-format.md §2 "Diamond error"; docs/ht.md "Errors").
 //
 // Each level of the HT tiles the cube, so one level costs about one visit per
 // grid point. Two evaluators, chosen per diamond:

@@ -1,4 +1,4 @@
-// Selective refinement on the HT (shared notes ht.md §5-6).
+// Selective refinement on the HT (normative: spec/ht-model.md §H2-§H3; docs/ht.md).
 //
 // Phase 1 (split set): push every tet that violates its bound, starting from the
 // roots; popping a tet forces its diamond split, first forcing the diamond's

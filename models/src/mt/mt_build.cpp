@@ -8,7 +8,7 @@
 // at every grid point of every tet of its star (docs/mt.md §2).
 //
 // Order: a heap of one live entry per vertex keyed by (cost, shape ratio, id),
-// re-evaluated lazily when its star changed (notes §2.3): deterministic.
+// re-evaluated lazily when its star changed (docs/mt.md §2, "Order"): deterministic.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -179,7 +179,7 @@ struct MtBuilder {
         heap.push(Entry{cost, -INFINITY, w, kNil, live_seq[w], stamp[w], true, false});
     }
 
-    // ---- link condition (notes §1.1) ----------------------------------------
+    // ---- link condition (docs/mt.md §2, "Legality") -------------------------
     struct Link {
         std::vector<uint32_t> v0;
         std::vector<std::array<uint32_t, 2>> v1;
@@ -274,7 +274,7 @@ struct MtBuilder {
         return i2.empty();
     }
 
-    // ---- candidate evaluation (notes §2.2-2.3) --------------------------------
+    // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
     // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
     bool make_new_tets(uint32_t w, uint32_t s, bool bary = true) {
         ntv.clear(), nb.clear();
@@ -328,7 +328,7 @@ struct MtBuilder {
     }
 
     /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
-    /// result is `partial` with a lower bound (notes §2.3 c).
+    /// result is `partial` with a lower bound (docs/mt.md §2, "Order").
     Candidate evaluate(uint32_t w, bool check_link, uint32_t prefer = kNil,
                        double cutoff = std::numeric_limits<double>::infinity()) {
         ++n_eval;

@@ -1,4 +1,4 @@
-// MT selective refinement (docs/mt.md §4): top-down vertex splits
+// MT selective refinement (normative: spec/mt-model.md §M5-§M7): top-down vertex splits
 // from the base mesh. A node v may split when every current neighbour has a
 // smaller label; then its star is its creation star, ordered canonically, and the
 // stored mask says which tets go to the inserted point w. Blocked nodes first

@@ -1,7 +1,7 @@
 // MT builder and selective refinement: every result is checked by the independent
 // brute-force checker of tests/support (conformity, volume, the bound at every grid
 // point), compared with an explicit-DAG oracle that applies the recorded node-space
-// tet history (notes §4.1, §7), and rebuilt for determinism.
+// tet history (spec/mt-model.md §M6), and rebuilt for determinism.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <queue>
 #include <cstring>
 #include <set>
 
@@ -116,7 +117,7 @@ KeyTet key_of(std::array<std::array<int32_t, 3>, 4> t) {
     return t;
 }
 
-/// Explicit-DAG oracle (notes §4.1, Magillo's MT_IncludeNode): tets are node tuples;
+/// Explicit-DAG oracle (spec/mt-model.md §M6, Magillo's MT_IncludeNode): tets are node tuples;
 /// split k removes after[k] and creates before[k]. A front tet failing its bound
 /// includes the split that removes it, ancestors first.
 std::set<KeyTet> oracle_extract(const MtModel& m, const Volume& vol, const LodQuery& q) {
@@ -227,6 +228,231 @@ TEST(MtBuild, FullGivesTheReferenceMesh) {
     }
 }
 
+// spec/mt-model.md §M2, written here from the text (not from the library's
+// reference_tets): the full query gives exactly that mesh, positively oriented.
+TEST(MtSpec, FullMeshIsTheSpecReferenceMesh) {
+    for (const Case& c : small_cases()) {
+        SCOPED_TRACE(case_str(c));
+        const MtModel& m = model_of(c);
+        LodQuery q;
+        q.full = true;
+        const TetMesh mesh = m.extract(q);
+        for (const auto& t : mesh.tets) {
+            std::array<std::array<int64_t, 3>, 4> p;
+            for (int i = 0; i < 4; ++i)
+                for (int a = 0; a < 3; ++a) p[i][a] = mesh.points[t[i]][a];
+            std::array<std::array<int64_t, 3>, 3> e;
+            for (int i = 0; i < 3; ++i)
+                for (int a = 0; a < 3; ++a) e[i][a] = p[i + 1][a] - p[0][a];
+            const int64_t det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                                e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                                e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+            EXPECT_GT(det, 0);
+        }
+        std::set<KeyTet> want;
+        const Dims& d = c.dims;
+        for (int32_t k = 0; k + 1 < d.z; ++k)
+            for (int32_t j = 0; j + 1 < d.y; ++j)
+                for (int32_t i = 0; i + 1 < d.x; ++i) {
+                    auto corner = [&](int cc) {
+                        return std::array<int32_t, 3>{i + (cc & 1), j + (cc >> 1 & 1), k + (cc >> 2)};
+                    };
+                    auto even = [&](int cc) {
+                        const auto p = corner(cc);
+                        return (p[0] + p[1] + p[2]) % 2 == 0;
+                    };
+                    std::vector<std::array<int32_t, 3>> central;
+                    for (int cc = 0; cc < 8; ++cc)
+                        if (even(cc)) central.push_back(corner(cc));
+                    ASSERT_EQ(central.size(), 4u);
+                    want.insert(key_of({central[0], central[1], central[2], central[3]}));
+                    for (int cc = 0; cc < 8; ++cc)
+                        if (!even(cc)) want.insert(key_of({corner(cc), corner(cc ^ 1), corner(cc ^ 2), corner(cc ^ 4)}));
+                }
+        EXPECT_EQ(mesh_keys(mesh), want);
+    }
+}
+
+namespace {
+
+/// An MT extractor written from spec/mt-model.md §M3-§M7 alone (no box queries):
+/// plain vectors and linear star scans, to check that the text determines the result.
+struct SpecExtractor {
+    using P = std::array<int64_t, 3>;
+    const MtModel& m;
+    const LodQuery& q;
+    int64_t X, Y;
+    std::vector<std::vector<uint32_t>> U;  // U_p: update indices with s = p, by label
+    std::vector<int64_t> pos;              // -1: not in the mesh
+    std::vector<std::array<uint32_t, 4>> tets;
+
+    SpecExtractor(const MtModel& model, const LodQuery& query)
+        : m(model), q(query), X(model.dims().x), Y(model.dims().y) {
+        const size_t n = size_t(model.dims().count());
+        U.resize(n);
+        for (uint32_t k = 0; k < m.updates().size(); ++k) U[m.updates()[k].s].push_back(k);
+        for (auto& l : U)
+            std::sort(l.begin(), l.end(), [&](uint32_t a, uint32_t b) { return m.updates()[a].label < m.updates()[b].label; });
+        pos.assign(n, -1);
+    }
+    P at(uint32_t i) const { return {int64_t(i) % X, int64_t(i) / X % Y, int64_t(i) / X / Y}; }
+    static int64_t orient(const P& a, const P& b, const P& c, const P& d) {
+        const P u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]},
+            w{d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+        return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+               u[2] * (v[0] * w[1] - v[1] * w[0]);
+    }
+    uint32_t label(uint32_t p) const { return pos[p] <= 0 ? 0 : m.updates()[U[p][pos[p] - 1]].label; }
+    const MtUpdate& current(uint32_t p) const { return m.updates()[U[p][pos[p] - 1]]; }
+    int64_t creator(const std::array<uint32_t, 4>& t) const {
+        uint32_t best = t[0];
+        for (uint32_t v : t)
+            if (label(v) > label(best)) best = v;
+        if (label(best) == 0) return -1;
+        int same = 0;
+        for (uint32_t v : t) same += label(v) == label(best);
+        EXPECT_EQ(same, 1);
+        return best;
+    }
+    bool fails(const std::array<uint32_t, 4>& t) const {
+        const int64_t c = creator(t);
+        if (c < 0) return false;
+        const double err = current(uint32_t(c)).error;
+        const double ein = q.full ? -1.0 : q.error_in;
+        const double eout = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
+        double b = ein;
+        if (!q.full && !q.isovalues.empty()) {
+            double lo = m.field().value(t[0]), hi = lo;
+            for (uint32_t v : t) lo = std::min(lo, m.field().value(v)), hi = std::max(hi, m.field().value(v));
+            bool in = false;
+            for (double iso : q.isovalues) in = in || (lo - err <= iso && iso <= hi + err);
+            b = in ? ein : eout;
+        }
+        return err > b;
+    }
+    std::vector<uint32_t> star(uint32_t s) const {
+        std::vector<uint32_t> out;
+        for (uint32_t i = 0; i < tets.size(); ++i)
+            if (std::find(tets[i].begin(), tets[i].end(), s) != tets[i].end()) out.push_back(i);
+        return out;
+    }
+    std::vector<uint32_t> split(uint32_t s) {  // §M5; returns the tets it produced
+        const MtUpdate& u = current(s);
+        const uint32_t w = u.w;
+        EXPECT_EQ(pos[w], -1);
+        std::vector<uint32_t> st = star(s);
+        EXPECT_EQ(st.size(), size_t(u.star));
+        const P ps = at(s), pw = at(w);
+        auto key = [&](uint32_t i) {
+            int64_t dot = 0;
+            std::array<uint32_t, 3> f{};
+            int nf = 0;
+            for (uint32_t v : tets[i]) {
+                const P p = at(v);
+                for (int a = 0; a < 3; ++a) dot += (p[a] - ps[a]) * (pw[a] - ps[a]);
+                if (v != s) f[nf++] = v;
+            }
+            std::sort(f.begin(), f.end());
+            return std::make_pair(-dot, f);
+        };
+        std::sort(st.begin(), st.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b); });
+        std::map<std::pair<uint32_t, uint32_t>, std::vector<bool>> sides;  // face (s,a,b) -> sides
+        std::vector<bool> side(st.size());
+        for (size_t r = 0; r < st.size(); ++r) {
+            side[r] = m.mask_bit(u, uint32_t(r));
+            std::vector<uint32_t> o;
+            for (uint32_t v : tets[st[r]])
+                if (v != s) o.push_back(v);
+            std::sort(o.begin(), o.end());
+            static constexpr int kE[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+            for (const auto& e : kE) sides[{o[e[0]], o[e[1]]}].push_back(side[r]);
+        }
+        std::vector<uint32_t> made = st;
+        for (size_t r = 0; r < st.size(); ++r)
+            if (side[r]) {
+                for (uint32_t& v : tets[st[r]])
+                    if (v == s) v = w;
+                const auto& t = tets[st[r]];
+                EXPECT_GT(orient(at(t[0]), at(t[1]), at(t[2]), at(t[3])), 0);
+            }
+        for (const auto& [ab, sd] : sides) {
+            EXPECT_LE(sd.size(), 2u);
+            const bool edge = sd.size() == 2 ? sd[0] != sd[1]
+                                             : sd[0] && orient(ps, at(ab.first), at(ab.second), pw) != 0;
+            if (!edge) continue;
+            const int64_t o = orient(ps, pw, at(ab.first), at(ab.second));
+            EXPECT_NE(o, 0);
+            tets.push_back(o > 0 ? std::array<uint32_t, 4>{s, w, ab.first, ab.second}
+                                 : std::array<uint32_t, 4>{s, w, ab.second, ab.first});
+            made.push_back(uint32_t(tets.size() - 1));
+        }
+        pos[s] -= 1;
+        pos[w] = int64_t(U[w].size());
+        EXPECT_LT(label(w), u.label);
+        EXPECT_LT(label(s), u.label);
+        return made;
+    }
+    std::set<KeyTet> run() {  // §M7
+        tets = m.base_tets();
+        for (const auto& t : tets)
+            for (uint32_t v : t) pos[v] = int64_t(U[v].size());
+        std::priority_queue<std::pair<uint32_t, uint32_t>> heap;
+        auto check = [&](uint32_t i) {
+            if (fails(tets[i])) {
+                const uint32_t c = uint32_t(creator(tets[i]));
+                heap.push({label(c), c});
+            }
+        };
+        for (uint32_t i = 0; i < tets.size(); ++i) check(i);
+        while (!heap.empty()) {
+            const auto [l, p] = heap.top();
+            heap.pop();
+            if (pos[p] < 0 || label(p) != l || l == 0) continue;
+            bool blocked = false;
+            for (uint32_t i : star(p)) {
+                const int64_t c = creator(tets[i]);
+                if (c != int64_t(p)) {
+                    EXPECT_GT(label(uint32_t(c)), l);
+                    heap.push({label(uint32_t(c)), uint32_t(c)});
+                    blocked = true;
+                }
+            }
+            if (blocked) {
+                heap.push({l, p});
+                continue;
+            }
+            for (uint32_t i : split(p)) check(i);
+        }
+        std::set<KeyTet> out;
+        for (const auto& t : tets) {
+            KeyTet k;
+            for (int i = 0; i < 4; ++i) {
+                const P p = at(t[i]);
+                k[i] = {int32_t(p[0]), int32_t(p[1]), int32_t(p[2])};
+            }
+            out.insert(key_of(k));
+        }
+        return out;
+    }
+};
+
+}  // namespace
+
+TEST(MtSpec, AnExtractorWrittenFromTheSpecGivesTheSameMeshes) {
+    for (const Case& c : small_cases()) {
+        SCOPED_TRACE(case_str(c));
+        const Volume* vol;
+        const MtModel& m = model_of(c, &vol);
+        int run = 0;
+        for (const LodQuery& q : queries_for(*vol)) {
+            if (q.box) continue;  // the spec's box test is checked by the independent checker
+            SCOPED_TRACE(run++);
+            SpecExtractor spec(m, q);
+            EXPECT_EQ(spec.run(), mesh_keys(m.extract(q)));
+        }
+    }
+}
+
 TEST(MtBuild, DecimatesFar) {
     for (const Case& c : small_cases()) {
         SCOPED_TRACE(case_str(c));
@@ -328,7 +554,7 @@ TEST(MtExtract, RejectsBadQueries) {
     EXPECT_THROW(m.extract(q2), Error);
 }
 
-// Real data (shared/data): bucky 32^3 and head_mr at a few errors.
+// Real data (TETLOD_DATA_DIR, optional): bucky 32^3 and head_mr at a few errors.
 TEST(MtRealData, BuckyAndHeadMr) {
     struct R {
         const char* file;
@@ -373,7 +599,7 @@ TEST(MtRealData, BuckyAndHeadMr) {
             EXPECT_TRUE(mesh_ok(*vol, mesh, mt_check_options(q, *vol)));
         }
     }
-    if (found == 0) GTEST_SKIP() << "shared/data (bucky_32x32x32_uint8.raw, head_mr_48x62x42_uint8.raw) not found";
+    if (found == 0) GTEST_SKIP() << "real datasets (bucky_32x32x32_uint8.raw, head_mr_48x62x42_uint8.raw) not found";
 }
 
 }  // namespace

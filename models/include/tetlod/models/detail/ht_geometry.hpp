@@ -1,6 +1,6 @@
 #pragma once
 // HT index arithmetic (internal). Everything is integer grid coordinates in the
-// cube [0, L]^3, L = 2^k. See docs/ht.md and shared notes §1-2:
+// cube [0, L]^3, L = 2^k. See docs/ht.md and spec/tlod-format.md §2:
 //  - a diamond is keyed by its centre, the midpoint of the spine its tets share;
 //    every grid point except the 8 cube corners is the centre of one diamond;
 //  - tets are ordered vertex 4-tuples refined by Maubach's tagged bisection.
@@ -28,7 +28,7 @@ struct DiamondInfo {
     bool corner = false;
 };
 
-/// Classifies a grid point of [0, L]^3 as a diamond centre (notes §2).
+/// Classifies a grid point of [0, L]^3 as a diamond centre (spec/tlod-format.md §2).
 inline DiamondInfo classify_centre(const Pt& c, int k) {
     DiamondInfo d;
     int tz[3] = {trailing_zeros(c[0], k), trailing_zeros(c[1], k), trailing_zeros(c[2], k)};
@@ -186,7 +186,7 @@ inline int diamond_children(const Pt& c, const DiamondInfo& d, int32_t L, Pt out
     return n;
 }
 
-// ---- Maubach's ordered bisection (notes §1) ------------------------------
+// ---- Maubach's ordered bisection (docs/ht.md) -------------------------------
 
 /// A tet of the hierarchy as an ordered 4-tuple with tag j in {1,2,3}; the
 /// spine (longest edge) is v[0]-v[j].

@@ -1,7 +1,7 @@
 #pragma once
 // Exact grid geometry shared by the MT builder and extractor: orientation,
 // barycentric numerators, the 5-tet reference mesh, the tet/box test, the shape
-// ratio and the canonical order of a star (notes §1.2, §3, §4.5).
+// ratio and the canonical order of a star (spec/mt-model.md §M1, §M2, §M5).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -73,7 +73,7 @@ struct Bary {
     }
 };
 
-/// The 5 tets of every grid cell (notes §3): the 4 corners of even x+y+z form the
+/// The 5 tets of every grid cell (spec/mt-model.md §M2): the 4 corners of even x+y+z form the
 /// central tet, each odd corner a tet with its 3 neighbours. Face diagonals match
 /// across cells. Positively oriented.
 inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
@@ -177,7 +177,7 @@ inline double shape_ratio(const std::array<Pt, 4>& t, const Vec3& sp) {
     return R / std::sqrt(shortest);
 }
 
-/// Canonical order of the star of node s for its split towards w (notes §4.5):
+/// Canonical order of the star of node s for its split towards w (spec/mt-model.md §M5):
 /// first by -(sum of the tet's corners - 4 s).(w - s) (tets leaning towards w come
 /// first, so masks are mostly a prefix of ones), then by the sorted grid indices of
 /// the face opposite s. Returns the permutation (positions into `star`).

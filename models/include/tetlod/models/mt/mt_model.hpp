@@ -4,14 +4,14 @@
 // analysis and a comparison". Built bottom-up from the 5-tets-per-cell reference
 // mesh by half-edge collapses (a grid point w merges into a neighbour s, so every
 // vertex stays a grid point with its exact value); read backwards, each collapse
-// is a vertex split. Design: docs/mt.md.
+// is a vertex split. Normative: spec/mt-model.md; design: docs/mt.md.
 //
-// History is recorded in node space (notes §4.2): the survivor of every collapse
+// History is recorded in node space (spec/mt-model.md §M4): the survivor of every collapse
 // gets a fresh node whose label is larger than the labels of its two children and
 // of every vertex of its link at creation. Then a split of node v is legal in any
-// extracted mesh exactly when every current neighbour has a smaller label (notes
-// §4.3), and the tets it removes are its star, ordered canonically (mt_order) and
-// partitioned by a bitmask (notes §4.5). No tet lists are stored.
+// extracted mesh exactly when every current neighbour has a smaller label (spec/mt-model.md
+// §M6), and the tets it removes are its star, ordered canonically (mt_order) and
+// partitioned by a bitmask (spec/mt-model.md §M5). No tet lists are stored.
 //
 // Errors: a tet's error is max |f(p) - L_T(p)| over the grid points p of the
 // closed tet. An update's error is the maximum over the tets of its creation star,
