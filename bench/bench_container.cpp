@@ -1,4 +1,4 @@
-// Container size and speed, per real dataset (directory: argument, else $TETLOD_DATA_DIR, else ./data), against (same run):
+// Container size and speed, per real dataset (directory: argument, else $TETLOD_DATA_DIR, else shared/data beside the checkout), against (same run):
 // the raw field, zstd -19 of the raw field, and the paper's 14 bytes per point.
 // Then decode throughput against plain zstd decompression of the same bytes,
 // and the bytes read for a coarse LOD and a small full-resolution box on a 257^3
@@ -40,7 +40,7 @@ static bool load_raw(const std::filesystem::path& p, Volume& v) {
 }
 
 int main(int argc, char** argv) {
-    std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : "data";
+    std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : TETLOD_DEFAULT_DATA_DIR;
     bool quick = false;
     for (int i = 1; i < argc; ++i) {
         if (std::string(argv[i]) == "--quick") quick = true;

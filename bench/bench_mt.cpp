@@ -1,4 +1,4 @@
-// bench_mt: the edge-based Multi-Tessellation on the real datasets (directory: argument, else $TETLOD_DATA_DIR, else ./data).
+// bench_mt: the edge-based Multi-Tessellation on the real datasets (directory: argument, else $TETLOD_DATA_DIR, else shared/data beside the checkout).
 // Prints, per dataset: build time and peak memory (getrusage), updates, base mesh,
 // encoded size (bytes per grid point), tets at the same uniform errors for HT and MT,
 // tets in a box and an isovalue query, average tets added per split, and the shape
@@ -76,7 +76,7 @@ double mean_ratio(const TetMesh& m) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : "data", only;
+    std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : TETLOD_DEFAULT_DATA_DIR, only;
     bool big = false, no_ht = false;
     MtBuildOptions bopt;
     for (int i = 1; i < argc; ++i) {

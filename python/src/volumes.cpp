@@ -56,11 +56,11 @@ void write_volume_array(py::array array, const std::string& path, py::object spa
 }  // namespace
 
 py::array volume_array(Volume&& volume) {
-    auto owned = std::make_unique<std::vector<std::byte>>(std::move(volume.data));
+    auto owned = std::make_unique<ZeroedVector<std::byte>>(std::move(volume.data));
     const std::size_t size = value_size(volume.type);
     const Dims d = volume.dims;
     std::byte* data = owned->data();
-    py::capsule owner(owned.get(), [](void* p) { delete static_cast<std::vector<std::byte>*>(p); });
+    py::capsule owner(owned.get(), [](void* p) { delete static_cast<ZeroedVector<std::byte>*>(p); });
     owned.release();
     return py::array(numpy_dtype(volume.type), {d.z, d.y, d.x},
                      {py::ssize_t(size) * d.x * d.y, py::ssize_t(size) * d.x, py::ssize_t(size)},
