@@ -2,6 +2,7 @@
 // "MEDIT: an interactive mesh visualization software", INRIA RT-0253) and
 // libMeshb's keyword list: free-format ASCII keywords, each followed by a count
 // and that many records; "End" closes the file.
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/medit_writer.hpp"
 
 #include <cstdio>
@@ -70,6 +71,16 @@ void write_medit(const TetMesh& mesh, const std::string& path) {
     mesh_file.write(s);
     sol_file.commit();
     mesh_file.commit();
+}
+
+MeshFormat medit_mesh_format() {
+    MeshFormat f;
+    f.name = "mesh";
+    f.extensions = {".mesh"};
+    f.description = "(Medit + .sol)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_medit(m, path); };
+    f.companion_files = [](const std::string& path) { return std::vector<std::string>{medit_sol_path(path)}; };
+    return f;
 }
 
 }  // namespace tetlod

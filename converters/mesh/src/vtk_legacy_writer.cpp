@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mesh_check.hpp"
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
@@ -101,6 +102,15 @@ void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
         }
     }
     out.commit();
+}
+
+MeshFormat vtk_legacy_mesh_format() {
+    MeshFormat f;
+    f.name = "vtk";
+    f.extensions = {".vtk"};
+    f.description = "(VTK legacy)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_vtk_legacy(m, path); };
+    return f;
 }
 
 }  // namespace tetlod

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mesh_check.hpp"
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
@@ -176,6 +177,19 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptio
         for (const auto& a : *group) out.write(a.encoded.data(), a.encoded.size());
     out.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
     out.commit();
+}
+
+MeshFormat vtu_mesh_format() {
+    MeshFormat f;
+    f.name = "vtu";
+    f.extensions = {".vtu"};
+    f.description = "(VTK XML)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions& o) {
+        VtuWriteOptions vo;
+        vo.compress = o.compress;
+        write_vtu(m, path, vo);
+    };
+    return f;
 }
 
 }  // namespace tetlod
