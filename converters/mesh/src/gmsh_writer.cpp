@@ -9,9 +9,9 @@
 #include <cstring>
 #include <vector>
 
-#include "mesh_check.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -90,7 +90,7 @@ void view(MshOut& o, const char* section, const std::string& name, std::size_t c
 }  // namespace
 
 void write_gmsh(const TetMesh& mesh, const std::string& path, bool binary) {
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     const std::size_t np = mesh.points.size(), nt = mesh.tets.size();
     if ((np > 0x7fffffffu || nt > 0x7fffffffu) && binary)
         throw Error(ErrorCode::TooLarge,

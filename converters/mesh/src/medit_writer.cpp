@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "mesh_check.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 #include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
@@ -34,7 +34,7 @@ void write_medit(const TetMesh& mesh, const std::string& path) {
         throw Error(ErrorCode::InvalidArgument,
                     "Medit cannot be written to standard output ('-'): the field goes to a .sol file "
                     "beside the .mesh; give a file name or another format");
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     std::string s;
     s.reserve(mesh.points.size() * 64 + mesh.tets.size() * 40 + 256);
     s += "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";

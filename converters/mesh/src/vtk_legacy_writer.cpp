@@ -9,11 +9,11 @@
 #include <limits>
 #include <vector>
 
-#include "mesh_check.hpp"
 #include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -50,7 +50,7 @@ std::string legacy_name(const std::string& s) {
 }  // namespace
 
 void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     const std::size_t np = mesh.points.size();
     const std::size_t nt = mesh.tets.size();
     constexpr auto kIntMax = static_cast<std::size_t>(std::numeric_limits<int32_t>::max());
