@@ -90,6 +90,7 @@ struct MtRefiner {
     }
 
     double bound(const std::array<uint32_t, 4>& t, double err) const {
+        if (!bounds.region) return bounds.in;  // spares the corners' coordinates
         return detail::query_bound(q, bounds, pts_of(t), [&](int i) { return m.field_.value(t[i]); }, err);
     }
 
