@@ -153,8 +153,8 @@ VolumeReadOptions VolumeFlags::options() const {
 
 void add_volume_flags(CLI::App& sub, VolumeFlags& f) {
     const std::string group =
-        "Volume input (raw, .nrrd/.nhdr, .mhd/.mha, .vdb, FILE.h5:/dataset; raw dims and "
-        "dtype can come from a name like NAME_XxYxZ_DTYPE.raw)";
+        "Volume input (" + volume_format_summary() +
+        "; raw dims and dtype can come from a name like NAME_XxYxZ_DTYPE.raw)";
     sub.add_option("--dims", f.dims, "Samples per axis X,Y,Z (x varies fastest)")
         ->group(group)
         ->check(check_with([](const std::string& s) { parse_dims(s, ""); }));

@@ -29,11 +29,11 @@ std::string lower_extension(const std::string& path) {
     return e;
 }
 
-// HDF5 names are FILE.h5:/dataset; anything else is a plain file.
+// Formats with datasets (HDF5) name them FILE.h5:/dataset; anything else is a plain file.
 bool split_hdf5(const std::string& name, std::string& file, std::string& dataset) {
     try {
         const VolumeLocation loc = locate_volume(name);
-        if (loc.format != VolumeFormat::Hdf5) return false;
+        if (!loc.format->datasets) return false;
         file = loc.file;
         dataset = loc.dataset;
         return true;
@@ -71,12 +71,10 @@ void precheck_output(const OutputPolicy& policy, const std::string& output) {
         return;
     }
     policy.check_output(output);
-    const std::string ext = lower_extension(output);
-    const std::filesystem::path p(output);
-    if (ext == ".nhdr" || ext == ".mhd")
-        policy.check_output((p.parent_path() / (p.stem().string() + ".raw")).string());
-    else if (ext == ".mesh")
-        policy.check_output(medit_sol_path(output));
+    // The files a writer creates beside the named one (a detached header's
+    // data, Medit's .sol), as the format tables say.
+    for (const auto& f : volume_companion_files(output)) policy.check_output(f);
+    for (const auto& f : mesh_companion_files(output)) policy.check_output(f);
 }
 
 std::string stdin_as_file() {

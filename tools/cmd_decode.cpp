@@ -31,7 +31,7 @@ void print_written(const std::string& output, const VolumeLocation& where, const
     out() << "wrote    " << output << ": " << format_dims(v.dims) << " " << value_type_name(v.type)
           << ", " << (ec ? std::string("?") : format_bytes(size)) << " in " << format_seconds(seconds)
           << "\n";
-    if (where.format == VolumeFormat::Raw)
+    if (where.format->name == "raw")
         out() << "read it back with: --dims " << format_dims(v.dims, ',') << " --dtype "
               << value_type_name(v.type) << " --spacing " << format_number(v.spacing[0]) << ','
               << format_number(v.spacing[1]) << ',' << format_number(v.spacing[2]) << " --origin "
@@ -62,7 +62,7 @@ int run_decode(const DecodeArgs& a) {
                     "--model applies to level-of-detail decoding: give --error E or --full");
     // Check the output name before any work: unknown extension or format not built.
     const VolumeLocation where = locate_volume(a.output, a.format);
-    if (!volume_format_built(where.format))
+    if (!where.format->built)
         throw Error(ErrorCode::NotBuilt,
                     "'" + a.output + "': this build of tetlod cannot write that format");
     // A .tlod name that is missing or not a container gets the container reader's message.
@@ -145,10 +145,10 @@ const CommandRegistration registration{Command{
         sub.add_option("input", a->input, "Input .tlod file (or any volume file, for --error)")
             ->required();
         sub.add_option("output", a->output,
-                       "Output volume: .raw, .nrrd, .nhdr, .mhd, .mha, .vdb or FILE.h5[:/dataset]")
+                       "Output volume: " + volume_format_summary())
             ->required();
         sub.add_option("--format", a->format, "Output format (default: from the extension)")
-            ->check(CLI::IsMember({"raw", "nrrd", "nhdr", "mhd", "mha", "vdb", "h5", "hdf5"}));
+            ->check(CLI::IsMember(volume_format_names()));
         add_volume_flags(sub, a->volume);
 
         const std::string lod =

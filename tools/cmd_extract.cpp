@@ -118,7 +118,7 @@ const CommandRegistration registration{Command{
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ExtractArgs>();
         sub.add_option("input", a->input, "Input volume file")->required();
-        sub.add_option("output", a->output, "Output mesh (.vtu, .vtk, .msh Gmsh 4.1, .mesh Medit + .sol)")->required();
+        sub.add_option("output", a->output, "Output mesh: " + mesh_format_summary())->required();
         add_volume_flags(sub, a->volume);
 
         const std::string lod =
@@ -138,7 +138,7 @@ const CommandRegistration registration{Command{
             ->group(model);
         sub.add_option("--format", a->format, "Mesh format (default: from the extension)")
             ->group(model)
-            ->check(CLI::IsMember({"vtu", "vtk", "msh", "msh-binary", "mesh"}));
+            ->check(CLI::IsMember(mesh_format_names()));
         sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed")
             ->group(model);
         sub.footer(

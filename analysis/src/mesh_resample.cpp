@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -158,15 +159,10 @@ void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
             }
     }
     const Writer<T> w{vol.as<T>(), exact_ints};
-    const int64_t nv = int64_t(mesh.points.size());
 
-    for (const auto& tet : mesh.tets) {
+    for (const auto& tet : mesh.tets) {  // vertex ids checked by validate() in resample_mesh
         // Canonical vertex order (increasing id): sums are order-independent per face.
         std::array<uint32_t, 4> ids = tet;
-        for (uint32_t id : ids)
-            if (int64_t(id) >= nv)
-                throw Error(ErrorCode::InvalidArgument,
-                            "resample_mesh: vertex id " + std::to_string(id) + " out of range");
         std::sort(ids.begin(), ids.end());
         std::array<std::array<int64_t, 3>, 4> P;
         std::array<int64_t, 3> lo{}, hi{};
@@ -206,11 +202,7 @@ void rasterise(const TetMesh& mesh, Volume& vol, std::vector<uint8_t>& covered,
 Volume resample_mesh(const TetMesh& mesh, const Dims& dims, ValueType type,
                      MeshResampleStats* stats) {
     validate_dims(dims, "resample_mesh");
-    if (mesh.values.size() != mesh.points.size())
-        throw Error(ErrorCode::InvalidArgument, "resample_mesh: " +
-                                                    std::to_string(mesh.values.size()) +
-                                                    " values for " +
-                                                    std::to_string(mesh.points.size()) + " vertices");
+    validate(mesh, "resample_mesh");
     Volume vol = Volume::allocate(dims, type);
     vol.spacing = mesh.geometry.spacing;
     vol.origin = mesh.geometry.origin;

@@ -79,11 +79,11 @@ Deviation deviation(const Volume& a, const Volume& b) {
 
 std::vector<std::string> output_names() {
     std::vector<std::string> names = {"out.raw", "out.nrrd", "out.nhdr", "out.mhd", "out.mha"};
-    if (volume_format_built(VolumeFormat::Hdf5)) {
+    if (volume_format_built("h5")) {
         names.push_back("out.h5:/data/volume");
         names.push_back("plain.h5");  // default dataset /volume
     }
-    if (volume_format_built(VolumeFormat::Vdb)) names.push_back("out.vdb");
+    if (volume_format_built("vdb")) names.push_back("out.vdb");
     return names;
 }
 

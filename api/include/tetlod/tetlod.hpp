@@ -16,10 +16,12 @@
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/output_policy.hpp"
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 #include "tetlod/core/triangle_mesh.hpp"
 #include "tetlod/core/utf8.hpp"
 #include "tetlod/core/value_type.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/zeroed_allocator.hpp"
 
 // Models and their queries.
 #include "tetlod/model.hpp"
@@ -42,9 +44,11 @@
 // Volume and mesh files.
 #include "tetlod/converters/features.hpp"
 #include "tetlod/converters/medit_writer.hpp"
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/converters/raw_volume.hpp"
 #include "tetlod/converters/sample_volumes.hpp"
+#include "tetlod/converters/volume_format.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/converters/volume_read_options.hpp"
 #if TETLOD_HAVE_OPENMESH

@@ -2,15 +2,16 @@
 // (version 4.1): $MeshFormat, $Nodes and $Elements in entity blocks, then
 // post-processing views ($NodeData / $ElementData: 1 string tag = view name,
 // 1 real tag = time, 3 integer tags = time step, components, count).
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/gmsh_writer.hpp"
 
 #include <cstdio>
 #include <cstring>
 #include <vector>
 
-#include "mesh_check.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -89,7 +90,7 @@ void view(MshOut& o, const char* section, const std::string& name, std::size_t c
 }  // namespace
 
 void write_gmsh(const TetMesh& mesh, const std::string& path, bool binary) {
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     const std::size_t np = mesh.points.size(), nt = mesh.tets.size();
     if ((np > 0x7fffffffu || nt > 0x7fffffffu) && binary)
         throw Error(ErrorCode::TooLarge,
@@ -135,6 +136,24 @@ void write_gmsh(const TetMesh& mesh, const std::string& path, bool binary) {
     if (!mesh.error.empty())
         view(o, "ElementData", "error", nt, [&](std::size_t i) { return double(mesh.error[i]); });
     write_file_atomic(path, o.bytes().data(), o.bytes().size());
+}
+
+MeshFormat gmsh_ascii_mesh_format() {
+    MeshFormat f;
+    f.name = "msh";
+    f.extensions = {".msh"};
+    f.description = "(Gmsh 4.1)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_gmsh(m, path, false); };
+    return f;
+}
+
+// Only by name: a .msh file is ASCII unless binary is asked for.
+MeshFormat gmsh_binary_mesh_format() {
+    MeshFormat f;
+    f.name = "msh-binary";
+    f.description = "(Gmsh 4.1 binary)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_gmsh(m, path, true); };
+    return f;
 }
 
 }  // namespace tetlod

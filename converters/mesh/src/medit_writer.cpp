@@ -2,14 +2,15 @@
 // "MEDIT: an interactive mesh visualization software", INRIA RT-0253) and
 // libMeshb's keyword list: free-format ASCII keywords, each followed by a count
 // and that many records; "End" closes the file.
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/medit_writer.hpp"
 
 #include <cstdio>
 #include <filesystem>
 
-#include "mesh_check.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 #include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
@@ -33,7 +34,7 @@ void write_medit(const TetMesh& mesh, const std::string& path) {
         throw Error(ErrorCode::InvalidArgument,
                     "Medit cannot be written to standard output ('-'): the field goes to a .sol file "
                     "beside the .mesh; give a file name or another format");
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     std::string s;
     s.reserve(mesh.points.size() * 64 + mesh.tets.size() * 40 + 256);
     s += "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";
@@ -70,6 +71,16 @@ void write_medit(const TetMesh& mesh, const std::string& path) {
     mesh_file.write(s);
     sol_file.commit();
     mesh_file.commit();
+}
+
+MeshFormat medit_mesh_format() {
+    MeshFormat f;
+    f.name = "mesh";
+    f.extensions = {".mesh"};
+    f.description = "(Medit + .sol)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_medit(m, path); };
+    f.companion_files = [](const std::string& path) { return std::vector<std::string>{medit_sol_path(path)}; };
+    return f;
 }
 
 }  // namespace tetlod

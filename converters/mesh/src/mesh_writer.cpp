@@ -1,22 +1,14 @@
+// Mesh format dispatcher: picks the table entry (mesh_format.hpp) from the
+// format name or the file's extension, then calls its writer.
 #include "tetlod/converters/mesh_writer.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <filesystem>
 
-#include "tetlod/converters/gmsh_writer.hpp"
-#include "tetlod/converters/medit_writer.hpp"
-#include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod {
 
 namespace {
-
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-    return s;
-}
 
 std::string joined_formats() {
     std::string r;
@@ -26,39 +18,42 @@ std::string joined_formats() {
 
 }  // namespace
 
-// "msh-binary" is the one name that is not an extension: .msh files are ASCII
-// unless it is asked for.
 std::vector<std::string> mesh_format_names() {
-    return {"vtu", "vtk", "msh", "msh-binary", "mesh"};
+    std::vector<std::string> names;
+    for (const auto& f : mesh_formats()) names.push_back(f.name);
+    return names;
 }
 
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format,
                     const MeshWriteOptions& options) {
-    std::string f = lower(format);
-    if (f.empty()) {
-        f = lower(std::filesystem::path(path).extension().string());
-        if (!f.empty() && f[0] == '.') f.erase(0, 1);
-        if (f.empty())
+    const MeshFormat* f = nullptr;
+    if (!format.empty()) {
+        f = find_mesh_format(format);
+        if (!f)
+            throw Error(ErrorCode::InvalidArgument, "'" + path + "': unknown mesh format '" + format +
+                                                        "' (supported: " + joined_formats() + ")");
+    } else {
+        const std::string ext = std::filesystem::path(path).extension().string();
+        if (ext.empty() || ext == ".")
             throw Error(ErrorCode::InvalidArgument,
                         "'" + path +
                             "': no file extension to choose a mesh format from "
                             "(supported: " +
                             joined_formats() + ")");
+        f = mesh_format_for_path(path);
+        if (!f)
+            throw Error(ErrorCode::InvalidArgument, "'" + path + "': unknown mesh format '" + ext.substr(1) +
+                                                        "' (supported: " + joined_formats() + ")");
     }
-    if (f == "vtu") {
-        VtuWriteOptions vo;
-        vo.compress = options.compress;
-        write_vtu(mesh, path, vo);
-    } else if (f == "vtk") {
-        write_vtk_legacy(mesh, path);
-    } else if (f == "msh" || f == "msh-binary") {
-        write_gmsh(mesh, path, f == "msh-binary");
-    } else if (f == "mesh") {
-        write_medit(mesh, path);
-    } else {
-        throw Error(ErrorCode::InvalidArgument, "'" + path + "': unknown mesh format '" + f +
-                                                    "' (supported: " + joined_formats() + ")");
-    }
+    if (!f->built)
+        throw Error(ErrorCode::NotBuilt, "'" + path + "': this tetlod was built without the " + f->name + " writer");
+    f->write(mesh, path, options);
+}
+
+std::vector<std::string> mesh_companion_files(const std::string& path) {
+    const MeshFormat* f = mesh_format_for_path(path);
+    if (!f || !f->companion_files) return {};
+    return f->companion_files(path);
 }
 
 }  // namespace tetlod

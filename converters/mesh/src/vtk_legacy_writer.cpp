@@ -9,10 +9,11 @@
 #include <limits>
 #include <vector>
 
-#include "mesh_check.hpp"
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -49,7 +50,7 @@ std::string legacy_name(const std::string& s) {
 }  // namespace
 
 void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     const std::size_t np = mesh.points.size();
     const std::size_t nt = mesh.tets.size();
     constexpr auto kIntMax = static_cast<std::size_t>(std::numeric_limits<int32_t>::max());
@@ -101,6 +102,15 @@ void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
         }
     }
     out.commit();
+}
+
+MeshFormat vtk_legacy_mesh_format() {
+    MeshFormat f;
+    f.name = "vtk";
+    f.extensions = {".vtk"};
+    f.description = "(VTK legacy)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_vtk_legacy(m, path); };
+    return f;
 }
 
 }  // namespace tetlod

@@ -14,10 +14,11 @@
 #include <sstream>
 #include <vector>
 
-#include "mesh_check.hpp"
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -106,7 +107,7 @@ std::string xml_escape(const std::string& s) {
 }  // namespace
 
 void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptions& options) {
-    detail::check_tet_mesh(mesh, path);
+    validate(mesh, "cannot write '" + path + "'");
     if (options.compress && (options.block_size == 0 || options.block_size > (1u << 30) ||
                              options.compression_level < 0 || options.compression_level > 9))
         throw Error(
@@ -176,6 +177,19 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptio
         for (const auto& a : *group) out.write(a.encoded.data(), a.encoded.size());
     out.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
     out.commit();
+}
+
+MeshFormat vtu_mesh_format() {
+    MeshFormat f;
+    f.name = "vtu";
+    f.extensions = {".vtu"};
+    f.description = "(VTK XML)";
+    f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions& o) {
+        VtuWriteOptions vo;
+        vo.compress = o.compress;
+        write_vtu(m, path, vo);
+    };
+    return f;
 }
 
 }  // namespace tetlod

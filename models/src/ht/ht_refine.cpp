@@ -24,6 +24,7 @@
 
 #include "tetlod/models/detail/ht_geometry.hpp"
 #include "tet_box.hpp"
+#include "../query/lod_query_region.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/core/error.hpp"
 
@@ -57,20 +58,17 @@ public:
           field_(model.field()),
           err_(model.diamond_errors()),
           q_(q),
+          bounds_(detail::query_bounds(q)),
           X_(model.field().dims.x),
           XY_(model.field().dims.x * model.field().dims.y),
           n_(model.field().count()) {
         split_.assign(static_cast<std::size_t>((n_ + 63) / 64), 0);
         vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
-        eps_in_ = q.full ? -1.0 : q.error_in;
-        eps_out_ = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
-        has_region_ = q.has_region() && !q.full;
-        eps_min_ = std::min(eps_in_, eps_out_);
-        eps_max_ = std::max(eps_in_, eps_out_);
-        if (q.box) {
-            const auto& b = *q.box;
-            box_ = ht::IBox{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
-        }
+        eps_in_ = bounds_.in;
+        eps_out_ = bounds_.out;
+        has_region_ = bounds_.region;
+        eps_min_ = bounds_.min();
+        eps_max_ = bounds_.max();
     }
 
     TetMesh run(HtExtractStats* stats) {
@@ -147,24 +145,6 @@ private:
 
     double vertex_value(const Pt& p) const { return field_.value(index(p)); }
 
-    bool in_region(const PendingTet& t, double err) const {
-        if (q_.box && !ht::tet_meets_box(t.v, *box_)) return false;
-        if (!q_.isovalues.empty()) {
-            double lo = vertex_value(t.v[0]), hi = lo;
-            for (int i = 1; i < 4; ++i) {
-                const double f = vertex_value(t.v[i]);
-                lo = std::min(lo, f), hi = std::max(hi, f);
-            }
-            // Every grid point p of the tet has |f(p) - L_T(p)| <= err and L_T lies
-            // between the vertex values, so f over the tet lies in [lo-err, hi+err].
-            lo -= err, hi += err;
-            bool hit = false;
-            for (double v : q_.isovalues) hit = hit || (lo <= v && v <= hi);
-            if (!hit) return false;
-        }
-        return true;
-    }
-
     /// Does the tet satisfy its bound (or need no split for its own sake)?
     bool ok(const PendingTet& t) const {
         switch (ht::classify_against_data_box(t.v, dom_.box_max)) {
@@ -175,8 +155,7 @@ private:
         if (t.level >= dom_.max_level()) return true;
         const double err = err_[index(ht::midpoint(t.v[0], t.v[1]))];
         if (err <= std::min(eps_in_, eps_out_)) return true;  // no region test needed
-        if (!q_.has_region()) return err <= eps_in_;
-        return err <= (in_region(t, err) ? eps_in_ : eps_out_);
+        return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return vertex_value(t.v[i]); }, err);
     }
 
     void force(const Pt& start) {
@@ -399,10 +378,10 @@ private:
     const Volume& field_;
     const std::vector<float>& err_;
     const LodQuery& q_;
+    const detail::QueryBounds bounds_;  // after q_: initialised from it
     const int64_t X_, XY_, n_;
     double eps_in_ = 0, eps_out_ = 0, eps_min_ = 0, eps_max_ = 0;
     bool has_region_ = false;
-    std::optional<ht::IBox> box_;
 
     std::vector<uint64_t> split_;
     std::unordered_set<uint64_t> outside_split_;
@@ -417,19 +396,7 @@ private:
 }  // namespace
 
 TetMesh HtModel::extract(const LodQuery& query, HtExtractStats* stats) const {
-    if (query.box) {
-        const auto& b = *query.box;
-        for (int a = 0; a < 3; ++a)
-            if (b[a] > b[a + 3])
-                throw Error(ErrorCode::InvalidArgument,
-                            "query box: lower corner exceeds the upper corner on axis " +
-                                std::string(1, "xyz"[a]));
-    }
-    for (double v : query.isovalues)
-        if (!std::isfinite(v))
-            throw Error(ErrorCode::InvalidArgument, "isovalue must be finite");
-    if (std::isnan(query.error_in) || std::isnan(query.error_out))
-        throw Error(ErrorCode::InvalidArgument, "error bound is NaN");
+    detail::check_query(query);
     Refiner r(*this, query);
     return r.run(stats);
 }

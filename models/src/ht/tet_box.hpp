@@ -62,10 +62,7 @@ inline bool sat_overlap(const Tet& t, const IBox& b, bool touching_separates) {
 }
 }  // namespace detail
 
-/// True when the closed tet and the closed box share at least one point.
-inline bool tet_meets_box(const Tet& t, const IBox& b) {
-    return detail::sat_overlap(t, b, /*touching_separates=*/false);
-}
+// (Closed tet meets closed box, the LOD query's test: tet_box_intersection.hpp.)
 
 /// True when the interiors of tet and box intersect (touching does not count).
 inline bool tet_interior_meets_box(const Tet& t, const IBox& b) {

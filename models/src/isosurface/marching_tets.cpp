@@ -12,6 +12,7 @@
 
 #include "surface_weld.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
@@ -28,22 +29,6 @@ double dot(const P3& a, const P3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] *
 // Face opposite vertex i of a positively oriented tet, ordered so its normal
 // points away from i (out of the tet).
 constexpr int kOppositeFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-
-void check_mesh(const TetMesh& m) {
-    const std::size_t n = m.points.size();
-    if (m.values.size() != n)
-        throw Error(ErrorCode::InvalidArgument,
-                    "isosurface: mesh has " + std::to_string(n) + " points but " +
-                        std::to_string(m.values.size()) + " values");
-    if (!m.error.empty() && m.error.size() != m.tets.size())
-        throw Error(ErrorCode::InvalidArgument, "isosurface: mesh error array size mismatch");
-    for (const auto& t : m.tets)
-        for (uint32_t v : t)
-            if (v >= n)
-                throw Error(ErrorCode::InvalidArgument,
-                            "isosurface: tet refers to vertex " + std::to_string(v) + " of " +
-                                std::to_string(n));
-}
 
 struct Surfacer {
     const TetMesh& mesh;
@@ -178,7 +163,7 @@ struct Surfacer {
 
 TriangleMesh marching_tetrahedra(const TetMesh& mesh, std::span<const double> isovalues,
                                  IsosurfaceStats* stats_out) {
-    check_mesh(mesh);
+    validate(mesh, "isosurface");
     if (isovalues.size() > 65535)
         throw Error(ErrorCode::InvalidArgument, "isosurface: more than 65535 isovalues");
     for (double v : isovalues)

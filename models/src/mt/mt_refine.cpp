@@ -10,6 +10,7 @@
 #include <queue>
 #include <string>
 
+#include "../query/lod_query_region.hpp"
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/core/error.hpp"
@@ -30,8 +31,7 @@ struct MtRefiner {
     const LodQuery& q;
     mt::Grid grid;
     uint32_t n;
-    double eps_in, eps_out;
-    std::array<int64_t, 3> blo{}, bhi{};
+    detail::QueryBounds bounds;
 
     std::vector<std::array<uint32_t, 4>> tv;
     std::vector<uint32_t> tnext;
@@ -42,12 +42,8 @@ struct MtRefiner {
     MtExtractStats st;
 
     MtRefiner(const MtModel& model, const LodQuery& query)
-        : m(model), q(query), grid(model.dims()), n(uint32_t(model.dims().count())) {
-        eps_in = q.full ? -1.0 : q.error_in;
-        eps_out = q.full ? -1.0 : (q.has_region() ? q.error_out : q.error_in);
-        if (q.box)
-            for (int a = 0; a < 3; ++a) blo[a] = (*q.box)[a], bhi[a] = (*q.box)[a + 3];
-    }
+        : m(model), q(query), grid(model.dims()), n(uint32_t(model.dims().count())),
+          bounds(detail::query_bounds(query)) {}
 
     uint32_t current_update(uint32_t p) const {
         return m.csr_items_[m.csr_start_[p] + pos[p] - 1];
@@ -94,22 +90,8 @@ struct MtRefiner {
     }
 
     double bound(const std::array<uint32_t, 4>& t, double err) const {
-        if (!q.has_region() || q.full) return eps_in;
-        bool in = true;
-        if (q.box) in = mt::tet_meets_box(pts_of(t), blo, bhi);
-        if (in && !q.isovalues.empty()) {
-            double lo = m.field_.value(t[0]), hi = lo;
-            for (int i = 1; i < 4; ++i) {
-                const double f = m.field_.value(t[i]);
-                lo = std::min(lo, f), hi = std::max(hi, f);
-            }
-            // |f - L_T| <= err on the tet and L_T lies between the vertex values.
-            lo -= err, hi += err;
-            bool hit = false;
-            for (double v : q.isovalues) hit = hit || (lo <= v && v <= hi);
-            in = hit;
-        }
-        return in ? eps_in : eps_out;
+        if (!bounds.region) return bounds.in;  // spares the corners' coordinates
+        return detail::query_bound(q, bounds, pts_of(t), [&](int i) { return m.field_.value(t[i]); }, err);
     }
 
     void check(uint32_t t) {
@@ -278,17 +260,7 @@ struct MtRefiner {
 };
 
 TetMesh MtModel::extract(const LodQuery& query, MtExtractStats* stats) const {
-    if (query.box) {
-        const auto& b = *query.box;
-        for (int a = 0; a < 3; ++a)
-            if (b[a] > b[a + 3])
-                throw Error(ErrorCode::InvalidArgument,
-                            "query box: lower corner exceeds the upper corner on axis " + std::string(1, "xyz"[a]));
-    }
-    for (double v : query.isovalues)
-        if (!std::isfinite(v)) throw Error(ErrorCode::InvalidArgument, "isovalue must be finite");
-    if (std::isnan(query.error_in) || std::isnan(query.error_out))
-        throw Error(ErrorCode::InvalidArgument, "error bound is NaN");
+    detail::check_query(query);
     MtRefiner r(*this, query);
     TetMesh mesh = r.run();
     if (stats) *stats = r.st;

@@ -1,21 +1,18 @@
 #pragma once
 // One entry point for every tetrahedral mesh format, chosen by name or by the
-// output file's extension, so tools never need to know the individual writers.
+// output file's extension through the table of formats (mesh_format.hpp), so
+// tools never need to know the individual writers.
 #include <string>
 #include <vector>
 
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 
 namespace tetlod {
 
-struct MeshWriteOptions {
-    /// Compress where the format allows it (.vtu); ignored by the others.
-    bool compress = true;
-};
-
-/// Formats write_tet_mesh accepts, as names that are also the file extensions
-/// (vtu, vtk, msh = Gmsh 4.1 ASCII, mesh = Medit + .sol), plus "msh-binary"
-/// (Gmsh 4.1 binary, only by name).
+/// Names write_tet_mesh accepts as `format`: every entry of mesh_formats()
+/// (vtu, vtk, msh = Gmsh 4.1 ASCII, msh-binary = Gmsh 4.1 binary, only by
+/// name, mesh = Medit + .sol).
 std::vector<std::string> mesh_format_names();
 
 /// Writes `mesh` to `path` atomically. `format` is one of mesh_format_names();
@@ -24,5 +21,9 @@ std::vector<std::string> mesh_format_names();
 /// supported ones, and whatever the chosen writer throws.
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format = "",
                     const MeshWriteOptions& options = {});
+
+/// Files write_tet_mesh(mesh, path) creates besides `path` (Medit's .sol);
+/// empty for an unknown extension.
+std::vector<std::string> mesh_companion_files(const std::string& path);
 
 }  // namespace tetlod

@@ -1,6 +1,7 @@
 #pragma once
 // One entry point for every volume format tetlod reads and writes, chosen from
-// the file name:
+// the file name through the table of formats (volume_format.hpp); see
+// volume_format_summary() for the list. The built-in formats:
 //   .raw                     raw samples (dims/type from options or NAME_XxYxZ_DTYPE.raw)
 //   .nrrd / .nhdr            NRRD, attached / detached
 //   .mha / .mhd              MetaImage, attached / detached
@@ -12,30 +13,20 @@
 #include <vector>
 
 #include "tetlod/converters/features.hpp"
+#include "tetlod/converters/volume_format.hpp"
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
 
 namespace tetlod {
 
-enum class VolumeFormat { Raw, Nrrd, MetaImage, Vdb, Hdf5 };
-
-struct VolumeLocation {
-    VolumeFormat format = VolumeFormat::Raw;
-    std::string file;     // the file on disk
-    std::string dataset;  // HDF5 only: path inside the file
-};
-
-/// Splits a user-given name into format, file and HDF5 dataset. `format`
-/// (raw, nrrd, nhdr, mhd, mha, vdb, h5, hdf5) overrides the extension.
-/// Throws InvalidArgument for an unknown extension.
+/// Splits a user-given name into format, file and dataset. `format` (any of
+/// volume_format_names()) overrides the extension. Throws InvalidArgument for
+/// an unknown extension or format name.
 VolumeLocation locate_volume(const std::string& path, const std::string& format = "");
 
-/// True when this build can read and write `format`.
-bool volume_format_built(VolumeFormat format);
-
-/// Reads any supported volume. A name with no known extension is read as raw
-/// when options give dims and type or the name is NAME_XxYxZ_DTYPE.ext.
-/// Throws tetlod::Error naming the file and problem.
+/// Reads any supported volume. A name with no known extension is read by the
+/// format that claims it (raw, when options give dims and type or the name is
+/// NAME_XxYxZ_DTYPE.ext). Throws tetlod::Error naming the file and problem.
 Volume read_volume(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Writes `volume` in the format chosen by `path` (or `format`), atomically:
@@ -48,5 +39,9 @@ void write_volume(const Volume& volume, const std::string& path, const std::stri
 /// report these keys (tetlod prints a warning naming them).
 std::vector<std::string> metadata_keys_lost(const Volume& volume, const std::string& path,
                                             const std::string& format = "");
+
+/// Files write_volume(volume, path, format) creates besides the named one (the
+/// data file of a detached header); empty for most formats or an unknown name.
+std::vector<std::string> volume_companion_files(const std::string& path, const std::string& format = "");
 
 }  // namespace tetlod

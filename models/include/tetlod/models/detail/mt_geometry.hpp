@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "tetlod/models/detail/tet_box_intersection.hpp"
 #include "tetlod/core/volume.hpp"
 
 namespace tetlod::mt {
@@ -101,53 +102,9 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
     return out;
 }
 
-/// Exact closed tet / closed box intersection (separating axis theorem).
-inline bool tet_meets_box(const std::array<Pt, 4>& t, const std::array<int64_t, 3>& lo,
-                          const std::array<int64_t, 3>& hi) {
-    for (int a = 0; a < 3; ++a) {
-        int64_t mn = t[0][a], mx = t[0][a];
-        for (int i = 1; i < 4; ++i) mn = std::min<int64_t>(mn, t[i][a]), mx = std::max<int64_t>(mx, t[i][a]);
-        if (mx < lo[a] || mn > hi[a]) return false;
-    }
-    auto separated = [&](const std::array<int64_t, 3>& n) {
-        if (n[0] == 0 && n[1] == 0 && n[2] == 0) return false;
-        __int128 tmn = 0, tmx = 0;
-        for (int i = 0; i < 4; ++i) {
-            const __int128 v = __int128(n[0]) * t[i][0] + __int128(n[1]) * t[i][1] + __int128(n[2]) * t[i][2];
-            if (i == 0 || v < tmn) tmn = v;
-            if (i == 0 || v > tmx) tmx = v;
-        }
-        __int128 bmn = 0, bmx = 0;
-        for (int a = 0; a < 3; ++a) {
-            const __int128 x = __int128(n[a]) * lo[a], y = __int128(n[a]) * hi[a];
-            bmn += std::min(x, y), bmx += std::max(x, y);
-        }
-        return tmx < bmn || tmn > bmx;
-    };
-    static constexpr int E[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-    std::array<std::array<int64_t, 3>, 6> e;
-    for (int i = 0; i < 6; ++i)
-        for (int a = 0; a < 3; ++a) e[i][a] = int64_t(t[E[i][1]][a]) - t[E[i][0]][a];
-    auto cross = [](const std::array<int64_t, 3>& u, const std::array<int64_t, 3>& v) {
-        return std::array<int64_t, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                                      u[0] * v[1] - u[1] * v[0]};
-    };
-    // Face normals of the tet.
-    static constexpr int F[4][2] = {{0, 1}, {0, 2}, {3, 4}, {1, 2}};  // edge pairs spanning faces
-    // faces: (0,1,2): e01 x e02; (0,1,3): e01 x e03; (1,2,3): e12 x e13; (0,2,3): e02 x e03
-    const std::array<std::array<int64_t, 3>, 4> fn = {cross(e[0], e[1]), cross(e[0], e[2]),
-                                                      cross(e[3], e[4]), cross(e[1], e[2])};
-    (void)F;
-    for (const auto& n : fn)
-        if (separated(n)) return false;
-    for (int a = 0; a < 3; ++a) {
-        std::array<int64_t, 3> ax{0, 0, 0};
-        ax[a] = 1;
-        for (int i = 0; i < 6; ++i)
-            if (separated(cross(ax, e[i]))) return false;
-    }
-    return true;
-}
+/// Exact closed tet / closed box intersection: shared with the HT through the
+/// query's region test (tet_box_intersection.hpp).
+using tetlod::geometry::tet_meets_box;
 
 /// Circumradius / shortest edge in physical coordinates (regular tet: sqrt(6)/4).
 inline double shape_ratio(const std::array<Pt, 4>& t, const Vec3& sp) {

@@ -1,0 +1,53 @@
+#pragma once
+// The table of tetrahedral mesh formats: one MeshFormat entry per format, each
+// defined beside its writer and registered in one list
+// (src/mesh_format_registry.cpp). write_tet_mesh, the CLI's --format choices and
+// its help texts come from this table.
+#include <deque>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tetlod/core/tet_mesh.hpp"
+
+namespace tetlod {
+
+struct MeshWriteOptions {
+    /// Compress where the format allows it (.vtu); ignored by the others.
+    bool compress = true;
+};
+
+struct MeshFormat {
+    /// Name accepted by --format ("vtu", "msh-binary").
+    std::string name;
+    /// Lower-case extensions with the dot that select this format; empty for a
+    /// format chosen only by name (msh-binary: .msh files are ASCII unless asked).
+    std::vector<std::string> extensions;
+    /// One line for help texts.
+    std::string description;
+    /// False when this build leaves the format out (write is then empty).
+    bool built = true;
+    /// Writes atomically; throws tetlod::Error naming the file.
+    std::function<void(const TetMesh&, const std::string& path, const MeshWriteOptions&)> write;
+    /// Optional: other files `write` creates beside `path` (Medit's .sol).
+    std::function<std::vector<std::string>(const std::string& path)> companion_files;
+};
+
+/// Every mesh format in registration order. Entries never move.
+const std::deque<MeshFormat>& mesh_formats();
+
+/// Adds a format (a third party's, or a test's). Not thread-safe: call it before
+/// other threads write meshes. Throws InvalidArgument when the name or an
+/// extension is taken.
+void register_mesh_format(MeshFormat format);
+
+/// The format named `name` (case-insensitive), or null.
+const MeshFormat* find_mesh_format(const std::string& name);
+
+/// The format `path` selects by its extension (case-insensitive), or null.
+const MeshFormat* mesh_format_for_path(const std::string& path);
+
+/// For help texts: ".vtu, .vtk, .msh (Gmsh 4.1), .mesh (Medit + .sol)" from the descriptions.
+std::string mesh_format_summary();
+
+}  // namespace tetlod

@@ -1,0 +1,27 @@
+// Table entry for OpenVDB (.vdb), present only when tetlod_vdb_io is built.
+#include "tetlod/converters/features.hpp"
+#include "tetlod/converters/volume_format.hpp"
+#if TETLOD_HAVE_OPENVDB
+#include "tetlod/converters/vdb.hpp"
+#endif
+
+namespace tetlod {
+
+VolumeFormat vdb_volume_format() {
+    VolumeFormat f;
+    f.name = "vdb";
+    f.aliases = {"openvdb"};
+    f.extensions = {".vdb"};
+    f.description = "OpenVDB grid (--grid picks one)";
+    f.not_built_hint = "OpenVDB (configure with -DTETLOD_WITH_OPENVDB=ON)";
+#if TETLOD_HAVE_OPENVDB
+    f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_vdb(l.file, o); };
+    f.write = [](const Volume& v, const VolumeLocation& l) { write_vdb(v, l.file); };
+    f.lost_metadata = vdb_unstorable_keys;
+#else
+    f.built = false;
+#endif
+    return f;
+}
+
+}  // namespace tetlod
