@@ -23,12 +23,6 @@ std::set<std::string>& reported() {
     return files;
 }
 
-std::string lower_extension(const std::string& path) {
-    std::string e = std::filesystem::path(path).extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-    return e;
-}
-
 // Formats with datasets (HDF5) name them FILE.h5:/dataset; anything else is a plain file.
 bool split_hdf5(const std::string& name, std::string& file, std::string& dataset) {
     try {

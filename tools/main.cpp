@@ -1,7 +1,7 @@
 // tetlod: git-style command line. Subcommands register themselves (command.hpp);
 // this file only wires them into CLI11 and maps failures to exit codes:
 //   0 success, 2 bad usage (CLI11 parse errors, InvalidArgument, an output that
-//   exists without -f or is an input), and otherwise tetlod::exit_code_for() of
+//   exists without -f or is an input), and otherwise exit_code_for() (exit_code.hpp) of
 //   the error (3 I/O or missing file, 4 bad input data, 5 not built).
 // It also installs the run's output policy (core/output_policy.hpp, -f/--force):
 // inputs are registered, outputs checked before any work, "-" inputs read from
@@ -15,6 +15,7 @@
 #include "cli_common.hpp"
 #include "cli_outputs.hpp"
 #include "command.hpp"
+#include "exit_code.hpp"
 
 namespace tetlod::cli {
 

@@ -115,11 +115,7 @@ void verify(const std::string& path, bool deep, VerifyReport& rep) {
 VerifyReport verify_container(const std::string& path, bool deep) {
     VerifyReport rep;
     rep.path = path;
-    try {
-        verify(path, deep, rep);
-    } catch (const Error& e) {
-        rep.failure = Failure{e.code(), e.what()};
-    }
+    if (auto done = capture([&] { verify(path, deep, rep); }); !done) rep.failure = done.failure();
     return rep;
 }
 

@@ -28,11 +28,9 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
     x.range = layout->metadata.value_range;
     if (resolve) resolve(query, x.range);
     x.query = query;
-    try {
-        x.mesh = model->extract(query);  // throws CorruptData on an inconsistent MT
-    } catch (const Error& e) {
-        return fail(e.code(), e.what());
-    }
+    auto mesh = capture([&] { return model->extract(query); });  // CorruptData on an inconsistent MT
+    if (!mesh) return mesh.failure();
+    x.mesh = std::move(*mesh);
     x.seconds = clock.seconds();
     x.mt_updates = model->updates().size();
     x.mt_field_from_ht = layout->with_ht;

@@ -19,16 +19,6 @@ namespace tetlod {
 
 namespace {
 
-// Runs `make`, turning a thrown tetlod::Error into a returned failure.
-template <class F>
-auto returned(F make) -> Expected<decltype(make())> {
-    try {
-        return make();
-    } catch (const Error& e) {
-        return fail(e.code(), e.what());
-    }
-}
-
 LodModel open_container_model(const std::string& path, ModelKind kind) {
     Stopwatch clock;
     LodModel m;
@@ -86,12 +76,12 @@ LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& opt
 }
 
 Expected<Volume> read_volume_file(const std::string& path, const VolumeReadOptions& read) {
-    return returned([&] { return read_volume(path, read); });
+    return capture([&] { return read_volume(path, read); });
 }
 
 Expected<LodModel> open_model(const std::string& path, ModelKind kind, const VolumeReadOptions& read,
                               const ModelBuildOptions& options) {
-    if (is_container_path(path)) return returned([&] { return open_container_model(path, kind); });
+    if (is_container_path(path)) return capture([&] { return open_container_model(path, kind); });
     auto volume = read_volume_file(path, read);
     if (!volume) return volume.failure();
     return build_model(kind, std::move(*volume), options);

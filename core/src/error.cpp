@@ -21,15 +21,4 @@ const char* error_code_name(ErrorCode code) {
     return "unknown error";
 }
 
-int exit_code_for(ErrorCode code) {
-    switch (code) {
-        case ErrorCode::Ok: return 0;
-        case ErrorCode::InvalidArgument: return 2;
-        case ErrorCode::IoError: return 3;
-        case ErrorCode::NotFound: return 3;
-        case ErrorCode::NotBuilt: return 5;
-        default: return 4;  // the input is bad: truncated, corrupt, unsupported, too large
-    }
-}
-
 }  // namespace tetlod

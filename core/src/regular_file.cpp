@@ -37,11 +37,8 @@ void require_regular_file(const std::string& path, const std::string& what) {
 }
 
 std::optional<Failure> regular_file_failure(const std::string& path, const std::string& what) {
-    try {
-        require_regular_file(path, what);
-    } catch (const Error& e) {
-        return fail(e.code(), e.what());
-    }
+    auto checked = capture([&] { require_regular_file(path, what); });
+    if (!checked) return checked.failure();
     return std::nullopt;
 }
 

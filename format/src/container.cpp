@@ -236,8 +236,8 @@ Expected<std::vector<std::byte>> ContainerReader::read_section(std::size_t i) {
     if (!(s.flags & kSectionZstd)) return stored;
     auto raw = zstd_decompress(*stored, s.raw_size);
     if (!raw)
-        return fail(raw.failure().code, name_ + ": section " + std::to_string(i) + " (" +
-                                            section_type_name(s.type) + "): " + raw.failure().message);
+        return with_context(name_ + ": section " + std::to_string(i) + " (" + section_type_name(s.type) + "): ",
+                            raw.failure());
     return raw;
 }
 

@@ -57,8 +57,7 @@ std::vector<std::byte> serialize_metadata(const Metadata& m) {
     // Never write what parse_metadata would refuse (e.g. a NaN origin from an
     // input file): the container would be unreadable by its own reader.
     if (auto back = parse_metadata(out); !back)
-        throw Error(back.failure().code, "refusing to write metadata the reader would refuse: " +
-                                             back.failure().message);
+        raise(with_context("refusing to write metadata the reader would refuse: ", back.failure()));
     return out;
 }
 

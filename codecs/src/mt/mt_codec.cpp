@@ -14,7 +14,7 @@
 #include <string>
 
 #include "tetlod/models/detail/mt_geometry.hpp"
-#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/format/container.hpp"
 
@@ -174,7 +174,7 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
     // grows its output with the data, so the counts are now backed by bytes.
     auto raw_r = tlod::zstd_decompress(
         std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + kHeaderSize), stored), raw_size);
-    if (!raw_r) return fail(raw_r.failure().code, "MT: payload: " + raw_r.failure().message);
+    if (!raw_r) return with_context("MT: payload: ", raw_r.failure());
     const std::vector<std::byte>& raw = raw_r.value();
     Reader r{reinterpret_cast<const uint8_t*>(raw.data()), reinterpret_cast<const uint8_t*>(raw.data()) + raw.size()};
     Reader st[kStreams];
@@ -255,11 +255,7 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
             return fail(ErrorCode::CorruptData, "MT: supplied field does not match the header");
         vol = *field;
     }
-    try {
-        return MtModel::from_parts(std::move(vol), std::move(base), std::move(ups), std::move(bits));
-    } catch (const Error& e) {
-        return fail(e.code(), e.what());
-    }
+    return capture([&] { return MtModel::from_parts(std::move(vol), std::move(base), std::move(ups), std::move(bits)); });
 }
 
 }  // namespace tetlod

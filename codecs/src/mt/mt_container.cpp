@@ -82,7 +82,7 @@ Expected<MtLayout> read_mt_layout(tlod::ContainerReader& r) {
     auto mraw = r.read_section(known[0]);
     if (!mraw) return mraw.failure();
     auto meta = tlod::parse_metadata(*mraw);
-    if (!meta) return fail(meta.failure().code, where + meta.failure().message);
+    if (!meta) return with_context(where, meta.failure());
     L.metadata = std::move(*meta);
     auto hraw = r.read_section(L.header_section);
     if (!hraw) return hraw.failure();
@@ -126,16 +126,13 @@ Expected<MtModel> decode_mt_container(tlod::ContainerReader& r) {
     std::memcpy(bytes.data(), head->data(), head->size());
     if (!body->empty()) std::memcpy(bytes.data() + head->size(), body->data(), body->size());
     auto m = decode_mt(bytes, L->with_ht ? &field : nullptr);
-    if (!m) return fail(m.failure().code, r.name() + ": MT sections: " + m.failure().message);
+    if (!m) return with_context(r.name() + ": MT sections: ", m.failure());
     return m;
 }
 
 MtModel load_mt_model(const std::string& path) {
-    auto r = tlod::ContainerReader::open(path);
-    if (!r) throw Error(r.failure().code, r.failure().message);
-    auto m = decode_mt_container(*r);
-    if (!m) throw Error(m.failure().code, m.failure().message);
-    return std::move(*m);
+    auto r = tlod::ContainerReader::open(path).take();
+    return decode_mt_container(r).take();
 }
 
 }  // namespace tetlod

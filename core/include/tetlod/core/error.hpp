@@ -1,10 +1,21 @@
 #pragma once
 // Errors: every failure the user can cause (bad files, bad flags) is reported as
 // a tetlod::Error carrying a code and a message that names the file and the problem.
-// Code that parses untrusted bytes returns Expected<T> instead of throwing, so a
-// decoder can never "throw through" half-built state.
+//
+// The discipline below tools/:
+// - Code that parses untrusted bytes (container framing, section decoders, the
+//   HT/MT codecs, the readers' header parsers) returns Expected<T>: a decoder
+//   never "throws through" half-built state, and a caller sees every way the
+//   bytes can be wrong in its signature.
+// - Everything else (builders, refinement, writers, argument checks, file
+//   opening) throws tetlod::Error.
+// - At the seams, no hand conversions: Expected::take() (or raise()) turns a
+//   Failure into a thrown Error; capture(f) turns a throwing call into an
+//   Expected; with_context() prefixes a Failure's message keeping its code.
+// - Exit codes are mapped from ErrorCode only by the command line (tools/).
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -28,9 +39,6 @@ enum class ErrorCode {
 
 const char* error_code_name(ErrorCode code);
 
-/// Exit code of the command line for an error code (documented in README).
-int exit_code_for(ErrorCode code);
-
 class Error : public std::runtime_error {
 public:
     Error(ErrorCode code, const std::string& message)
@@ -45,6 +53,14 @@ struct Failure {
     ErrorCode code;
     std::string message;
 };
+
+/// Throws the failure as tetlod::Error (same code and message).
+[[noreturn]] inline void raise(const Failure& f) { throw Error(f.code, f.message); }
+
+/// The failure with `context` put before its message, keeping its code.
+inline Failure with_context(const std::string& context, const Failure& f) {
+    return Failure{f.code, context + f.message};
+}
 
 /// Minimal expected<T, Failure> (std::expected is C++23).
 template <class T>
@@ -63,7 +79,7 @@ public:
     const Failure& failure() const { return std::get<1>(v_); }
     /// Returns the value or throws the failure as tetlod::Error.
     T take() {
-        if (!ok()) throw Error(failure().code, failure().message);
+        if (!ok()) raise(failure());
         return std::move(value());
     }
 
@@ -72,5 +88,26 @@ private:
 };
 
 inline Failure fail(ErrorCode code, std::string message) { return Failure{code, std::move(message)}; }
+
+/// What capture() returns for a call returning void.
+struct Done {};
+
+/// Runs `f()` and returns its result; a thrown tetlod::Error becomes the
+/// returned Failure (same code, message prefixed by `context`). Other
+/// exceptions (std::bad_alloc, logic errors) propagate.
+template <class F>
+auto capture(F&& f, const std::string& context = {})
+    -> Expected<std::conditional_t<std::is_void_v<std::invoke_result_t<F&>>, Done, std::invoke_result_t<F&>>> {
+    try {
+        if constexpr (std::is_void_v<std::invoke_result_t<F&>>) {
+            f();
+            return Done{};
+        } else {
+            return f();
+        }
+    } catch (const Error& e) {
+        return Failure{e.code(), context + e.what()};
+    }
+}
 
 }  // namespace tetlod

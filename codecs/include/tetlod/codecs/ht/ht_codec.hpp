@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/format/container.hpp"
@@ -28,13 +29,6 @@ struct HtEncodeOptions {
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
 };
-
-/// Spec §8: float32 error -> 16-bit code, rounding up (NaN and +inf give the
-/// +inf code; negative values and -0 give 0).
-uint16_t quantize_error(float error, int mantissa_bits);
-/// Spec §8: code -> float32 bound (exact). Precondition: code <= max_error_code(m).
-float dequantize_error(uint16_t code, int mantissa_bits);
-inline uint32_t max_error_code(int mantissa_bits) { return 0xFFu << mantissa_bits; }
 
 /// Appends METADATA and the HT sections of `model` to `writer` and sets the HT
 /// feature. `meta` describes the original (unpadded) volume.

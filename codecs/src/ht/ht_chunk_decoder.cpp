@@ -1,0 +1,147 @@
+// Decoding chosen chunks into a field and error array (shared by the whole
+// decode and the lazy extraction).
+#include "ht_chunk_decoder.hpp"
+
+#include "ht_error_chunk_coder.hpp"
+#include "ht_field_chunk_coder.hpp"
+#include "ht_residual_v1.hpp"
+
+namespace tetlod::ht_detail {
+
+/// Adds to `want` every chunk the wanted ones depend on: per cycle, the coarser
+/// chunks meeting the wanted chunks' boxes grown by the predictor reach (2^t
+/// at cycle t, spec §6.3). `want` is indexed like L.chunks (file order).
+void add_dependencies(const HtLayout& L, std::vector<char>& want) {
+    // Wanted boxes of the current cycle, grown as we go coarser.
+    std::vector<std::array<int64_t, 6>> region;
+    std::size_t i = L.chunks.size();
+    while (i > 0) {  // from the finest cycle (end of the list) to the coarsest
+        std::size_t b = i;
+        while (b > 0 && L.chunks[b - 1].cycle == L.chunks[i - 1].cycle) --b;
+        const int t = L.chunks[b].cycle;
+        for (std::size_t j = b; j < i; ++j) {
+            const HtChunk& c = L.chunks[j];
+            if (!want[j])
+                for (const auto& g : region) {
+                    bool meet = true;
+                    for (int a = 0; a < 3; ++a)
+                        meet = meet && c.box[a] <= g[3 + a] && g[a] <= c.box[3 + a];
+                    if (meet) {
+                        want[j] = 1;
+                        break;
+                    }
+                }
+        }
+        const int64_t h = int64_t{1} << t;
+        for (auto& g : region)
+            for (int a = 0; a < 3; ++a) g[a] -= h, g[3 + a] += h;
+        for (std::size_t j = b; j < i; ++j) {
+            if (!want[j]) continue;
+            auto g = L.chunks[j].box;
+            for (int a = 0; a < 3; ++a) g[a] -= h, g[3 + a] += h;
+            region.push_back(g);
+        }
+        i = b;
+    }
+}
+
+/// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
+/// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
+Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
+                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors) {
+    const Geometry G = geometry_of(L.domain, L.brick_log2);
+    const int m = L.error_mantissa_bits;
+    uint64_t decoded = 0;
+    std::size_t i = 0;
+    while (i < L.chunks.size()) {
+        std::size_t e = i;
+        while (e < L.chunks.size() && L.chunks[e].cycle == L.chunks[i].cycle) ++e;
+        std::vector<std::size_t> ids;
+        for (std::size_t j = i; j < e; ++j)
+            if (want[j] && !done[j]) ids.push_back(j);
+        std::vector<std::vector<std::byte>> fst(ids.size()), est(ids.size());
+        for (std::size_t j = 0; j < ids.size(); ++j) {
+            auto s = r.read_stored(L.chunks[ids[j]].field_section);
+            if (!s) return s.failure();
+            fst[j] = std::move(*s);
+            if (errors) {
+                auto s2 = r.read_stored(L.chunks[ids[j]].error_section);
+                if (!s2) return s2.failure();
+                est[j] = std::move(*s2);
+            }
+        }
+        std::vector<Failure> fails(ids.size(), Failure{ErrorCode::Ok, {}});
+        tbb::parallel_for(std::size_t(0), ids.size(), [&](std::size_t j) {
+            const HtChunk& c = L.chunks[ids[j]];
+            const auto& fsec = r.sections()[c.field_section];
+            auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si)
+                -> Expected<std::vector<std::byte>> {
+                if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
+                return tlod::zstd_decompress(st, si.raw_size);
+            };
+            auto raw = unpack(fst[j], fsec);
+            if (!raw) {
+                fails[j] = with_context(r.name() + ": section " + std::to_string(c.field_section) + ": ",
+                                        raw.failure());
+                return;
+            }
+            const bool field_ok = dispatch_value_type(field.type, [&](auto tv) {
+                using T = decltype(tv);
+                if (L.residual_coding == kResidualZigzagPlanes) {
+                    decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
+                    return true;
+                }
+                return decode_field_chunk_v2<T>(G, field.as<T>(), c, *raw);
+            });
+            if (!field_ok) {
+                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
+                                                            std::to_string(c.field_section) +
+                                                            ": malformed range-coded stream");
+                return;
+            }
+            if (!errors) return;
+            auto er = unpack(est[j], r.sections()[c.error_section]);
+            if (!er) {
+                fails[j] = with_context(r.name() + ": section " + std::to_string(c.error_section) + ": ",
+                                        er.failure());
+                return;
+            }
+            const bool codes_ok = dispatch_value_type(field.type, [&](auto tv) {
+                using T = decltype(tv);
+                if (L.residual_coding == kResidualZigzagPlanes)
+                    return decode_error_chunk<T>(G, field.as<T>(), *errors, c, m, er->data());
+                return decode_error_chunk_v2<T>(G, field.as<T>(), *errors, c, m, *er);
+            });
+            if (!codes_ok)
+                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
+                                                            std::to_string(c.error_section) +
+                                                            ": error code out of range or malformed stream");
+        });
+        for (const Failure& f : fails)
+            if (f.code != ErrorCode::Ok) return f;
+        for (std::size_t j : ids) done[j] = 1;
+        decoded += ids.size();
+        i = e;
+    }
+    return decoded;
+}
+
+Expected<Volume> allocate_decoded(const std::string& name, const HtLayout& L, ZeroedVector<float>* errors) {
+    try {
+        auto field = capture([&] { return Volume::allocate(L.domain.dims(), L.metadata.type); }, name + ": ");
+        if (field && errors) errors->resize(std::size_t(field->count()));  // zero, untouched
+        return field;
+    } catch (const std::bad_alloc&) {
+        return fail(ErrorCode::TooLarge, name + ": cannot allocate the decoded field");
+    }
+}
+
+void restore_metadata(Volume& field, const tlod::Metadata& md) {
+    field.spacing = md.spacing;
+    field.origin = md.origin;
+    field.field_name = md.field_name();
+    field.units = md.units();
+    field.metadata = md.user_keys;
+}
+
+}  // namespace tetlod::ht_detail

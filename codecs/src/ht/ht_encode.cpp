@@ -1,0 +1,105 @@
+// HT -> container sections: METADATA, HT_HEADER, then per chunk its field and
+// error sections (spec §6-§8).
+#include <tbb/parallel_for.h>
+
+#include "ht_chunk_geometry.hpp"
+#include "ht_error_chunk_coder.hpp"
+#include "ht_field_chunk_coder.hpp"
+
+namespace tetlod {
+
+using namespace ht_detail;
+
+namespace {
+
+std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
+    std::vector<std::byte> h;
+    tlod::put_u8(h, uint8_t(d.k));
+    tlod::put_u8(h, d.padded ? 1 : 0);
+    tlod::put_u8(h, uint8_t(g));
+    tlod::put_u8(h, uint8_t(m));
+    tlod::put_u8(h, kPredictorNeighbours);
+    tlod::put_u8(h, kResidualRangeCoder);
+    tlod::put_u16(h, 0);
+    for (int a = 0; a < 3; ++a) tlod::put_u32(h, uint32_t(d.box_max[a]));
+    tlod::put_u32(h, 0);
+    return h;
+}
+
+}  // namespace
+
+void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
+               const HtEncodeOptions& o) {
+    if (o.brick_log2 < 1 || o.brick_log2 > 16)
+        throw Error(ErrorCode::InvalidArgument, "brick_log2 must be in 1..16");
+    if (o.error_mantissa_bits < 0 || o.error_mantissa_bits > 7)
+        throw Error(ErrorCode::InvalidArgument, "error mantissa bits must be in 0..7");
+    const HtDomain& d = model.domain();
+    const Volume& f = model.field();
+    if (f.type != meta.type || !(d.source_dims == meta.dims))
+        throw Error(ErrorCode::InvalidArgument, "metadata does not describe the model's volume");
+    const Geometry G = geometry_of(d, o.brick_log2);
+    const std::vector<HtChunk> chunks = chunk_list(G);
+    const int m = o.error_mantissa_bits;
+
+    // Informative summary of the stored error bounds (spec §5.3), so `info`
+    // reports them without decoding any chunk.
+    tlod::Metadata md = meta;
+    {
+        float emax = 0;
+        uint64_t always = 0;
+        const auto& e = model.diamond_errors();
+        for (float v : e) {
+            const float q = dequantize_error(quantize_error(v, m), m);
+            if (std::isinf(q)) ++always;
+            else emax = std::max(emax, q);
+        }
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.9g", double(emax));
+        md.format_keys[tlod::kKeyHtErrorMax] = buf;
+        md.format_keys[tlod::kKeyHtAlwaysSplit] = std::to_string(always);
+    }
+    writer.set_features(tlod::kFeatureHt);
+    writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
+               o.zstd_level);
+    const auto hh = ht_header_bytes(d, o.brick_log2, m);
+    writer.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
+
+    std::vector<std::vector<std::byte>> fs(chunks.size()), es(chunks.size());
+    std::vector<uint64_t> fraw(chunks.size()), eraw(chunks.size());
+    // Parallel over chunks in batches so progress is reported from this thread.
+    const std::size_t batch = 64;
+    for (std::size_t s = 0; s < chunks.size(); s += batch) {
+        const std::size_t e = std::min(chunks.size(), s + batch);
+        tbb::parallel_for(s, e, [&](std::size_t i) {
+            auto raw = dispatch_value_type(f.type, [&](auto tv) {
+                using T = decltype(tv);
+                return encode_field_chunk_v2<T>(G, f.as<T>(), chunks[i]);
+            });
+            fraw[i] = raw.size();
+            fs[i] = std::move(raw);
+            auto er = dispatch_value_type(f.type, [&](auto tv) {
+                using T = decltype(tv);
+                return encode_error_chunk_v2<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m);
+            });
+            eraw[i] = er.size();
+            es[i] = std::move(er);
+        });
+        if (o.progress) o.progress(e, chunks.size());
+    }
+    for (std::size_t i = 0; i < chunks.size(); ++i) {
+        writer.add_stored(tlod::kSectionHtField, tlod::kSectionCritical,
+                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(fs[i]), fraw[i]);
+        writer.add_stored(tlod::kSectionHtErrors, tlod::kSectionCritical,
+                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(es[i]), eraw[i]);
+    }
+}
+
+void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
+                        const HtEncodeOptions& options) {
+    tlod::ContainerWriter w;
+    encode_ht(model, meta, w, options);
+    w.write(path);
+}
+
+}  // namespace tetlod

@@ -1,0 +1,214 @@
+#pragma once
+// Residual coding 2, error chunks (spec §8.3): quantized error codes coded
+// against the bound the lattice of the diamond allows.
+
+#include "ht_prediction.hpp"
+
+namespace tetlod::ht_detail {
+
+struct ErrorModels {
+    rc::Bit inf[4][2];  // class 3 (corners) never used: corners are not diamonds
+    rc::IntModel m[4][2][6];
+};
+/// Spec §8.3: may the diamond centred at c have a tet outside B (then it may be +inf)?
+inline int touches_far_face(const Geometry& G, int t, int64_t x, int64_t y, int64_t z) {
+    const int64_t h = int64_t{1} << t;
+    return (x + h > G.box_max[0] || y + h > G.box_max[1] || z + h > G.box_max[2]) ? 1 : 0;
+}
+
+/// Spec §8.3: the lattice lower bound of a diamond's error. Over the tets of the
+/// diamond with all four vertices in B, and over their edges (a, b) whose
+/// midpoint p lies on the lattice of spacing h = 2^t, the largest
+/// |f(p) - (f(a) + f(b)) / 2| (L_T(p) at an edge midpoint), counting only
+/// points already decoded: coarser cycles, or cycle t inside the chunk's box.
+/// At cycle 0 every grid point of the tets is such a midpoint or a vertex, so
+/// the bound is the exact diamond error unless a point lies in another brick.
+template <class T>
+uint32_t lattice_bound_code(const Geometry& G, const T* v, int t, int64_t x, int64_t y, int64_t z,
+                            const std::array<int64_t, 6>& cb, int m) {
+    const ht::Pt c{int32_t(x), int32_t(y), int32_t(z)};
+    const ht::DiamondInfo di = ht::classify_centre(c, G.k);
+    ht::Tet tets[8];
+    const int n = ht::diamond_tets(c, di, int32_t(int64_t{1} << G.k), tets);
+    const int64_t h = int64_t{1} << t;
+    auto known = [&](const ht::Pt& p) {
+        bool coarse = true;
+        for (int a = 0; a < 3; ++a) {
+            if (p[a] < 0 || p[a] > G.box_max[a]) return false;
+            if (p[a] & h) coarse = false;
+        }
+        if (coarse) return true;
+        for (int a = 0; a < 3; ++a)
+            if (p[a] < cb[a] || p[a] > cb[3 + a]) return false;
+        return true;
+    };
+    static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    double best = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const ht::Tet& T4 = tets[i];
+        bool inside = true;
+        for (const auto& p : T4)
+            for (int a = 0; a < 3; ++a) inside = inside && p[a] >= 0 && p[a] <= G.box_max[a];
+        if (!inside) continue;
+        for (const auto& e : kEdges) {
+            const ht::Pt& a = T4[e[0]];
+            const ht::Pt& b = T4[e[1]];
+            ht::Pt p;
+            bool lattice = true;
+            for (int q = 0; q < 3; ++q) {
+                const int64_t s2 = int64_t(a[q]) + b[q];
+                if ((s2 & (2 * h - 1)) != 0) lattice = false;
+                p[q] = int32_t(s2 / 2);
+            }
+            if (!lattice || !known(p) || !known(a) || !known(b)) continue;
+            const double fa = static_cast<double>(v[G.index(a[0], a[1], a[2])]);
+            const double fb = static_cast<double>(v[G.index(b[0], b[1], b[2])]);
+            const double fp = static_cast<double>(v[G.index(p[0], p[1], p[2])]);
+            const double d = std::fabs(fp - 0.5 * (fa + fb));
+            if (!(d <= best) && !std::isnan(best)) best = d;  // a NaN wins and stays
+        }
+    }
+    return quantize_error(static_cast<float>(best), m);
+}
+
+/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
+/// all its tets are in B and every point they touch is available, so the scan
+/// is the closed-form edge list of its sign pattern over precomputed offsets.
+/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
+template <class T>
+uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t off[27], int m) {
+    if constexpr (std::is_integral_v<T>) {
+        int64_t best = 0;
+        for (int i = 0; i < E.n; ++i) {
+            const int64_t d = 2 * int64_t(c[off[E.m[i]]]) - int64_t(c[off[E.a[i]]]) - int64_t(c[off[E.b[i]]]);
+            best = std::max(best, d < 0 ? -d : d);
+        }
+        return quantize_error(static_cast<float>(double(best) * 0.5), m);
+    } else {
+        double best = 0.0;
+        for (int i = 0; i < E.n; ++i) {
+            const double fa = static_cast<double>(c[off[E.a[i]]]);
+            const double fb = static_cast<double>(c[off[E.b[i]]]);
+            const double fp = static_cast<double>(c[off[E.m[i]]]);
+            const double d = std::fabs(fp - 0.5 * (fa + fb));
+            if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
+            best = std::max(best, d);
+        }
+        return quantize_error(static_cast<float>(best), m);
+    }
+}
+
+/// lattice_bound_code for a diamond inside B (c ± h in B) near its chunk's
+/// faces: the closed-form edge list, skipping edges with a point that is not
+/// available (neither coarser than cycle t nor in the chunk's box).
+template <class T>
+uint32_t lattice_bound_near_face(const T* c, const DiamondEdges& E, const int64_t off[27], uint32_t avail, int m) {
+    double best = 0.0;
+    for (int i = 0; i < E.n; ++i) {
+        if (!((avail >> E.a[i]) & (avail >> E.b[i]) & (avail >> E.m[i]) & 1u)) continue;
+        const double fa = static_cast<double>(c[off[E.a[i]]]);
+        const double fb = static_cast<double>(c[off[E.b[i]]]);
+        const double fp = static_cast<double>(c[off[E.m[i]]]);
+        const double d = std::fabs(fp - 0.5 * (fa + fb));
+        if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
+        best = std::max(best, d);
+    }
+    return quantize_error(static_cast<float>(best), m);
+}
+
+template <class T>
+uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, int64_t y,
+                             int64_t z, int64_t idx, int m) {
+    const DiamondEdges& E = diamond_edge_table().by_sig[sig_code(x, y, z, F.h)];
+    if (F.interior(x, y, z)) return lattice_bound_interior(v + idx, E, F.off, m);
+    const int64_t h = F.h;
+    const int64_t c[3] = {x, y, z};
+    bool in_b = true;
+    for (int a = 0; a < 3; ++a) in_b = in_b && c[a] - h >= 0 && c[a] + h <= G.box_max[a];
+    if (!in_b) return lattice_bound_code(G, v, t, x, y, z, F.cb, m);
+    // Per axis and offset o in {-1, 0, 1}: coarse (even multiple of h) and in the chunk's box.
+    bool even[3][3], inside[3][3];
+    for (int a = 0; a < 3; ++a)
+        for (int o = -1; o <= 1; ++o) {
+            const int64_t p = c[a] + o * h;
+            even[a][o + 1] = (p & h) == 0;
+            inside[a][o + 1] = p >= F.cb[a] && p <= F.cb[3 + a];
+        }
+    uint32_t avail = 0;
+    for (int oz = 0; oz < 3; ++oz)
+        for (int oy = 0; oy < 3; ++oy)
+            for (int ox = 0; ox < 3; ++ox)
+                if ((even[0][ox] && even[1][oy] && even[2][oz]) || (inside[0][ox] && inside[1][oy] && inside[2][oz]))
+                    avail |= 1u << (ox + 3 * oy + 9 * oz);
+    return lattice_bound_near_face(v + idx, E, F.off, avail, m);
+}
+
+template <class T>
+std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, const std::vector<float>& e,
+                                             const HtChunk& c, int m) {
+    std::vector<std::byte> out;
+    if (c.diamonds == 0) return out;
+    auto models = std::make_unique<ErrorModels>();
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
+    rc::Encoder enc(out);
+    const uint32_t qmax = max_error_code(m);
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        const int far = touches_far_face(G, c.cycle, x, y, z);
+        const uint32_t q = quantize_error(e[G.index(x, y, z)], m);
+        enc.encode(models->inf[cls][far], q == qmax);
+        if (q == qmax) {
+            lat.set(lat.slot(x, y, z), 0);
+            return;
+        }
+        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
+        const int64_t delta = int64_t(q) - int64_t(lb);
+        const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));
+        rc::encode_int(enc, models->m[cls][lb != 0][nb], mag, delta < 0, 16);
+        lat.set(lat.slot(x, y, z), mag);
+    });
+    enc.finish();
+    return out;
+}
+
+/// False on a malformed stream or a code out of range.
+template <class T>
+bool decode_error_chunk_v2(const Geometry& G, const T* v, ZeroedVector<float>& e, const HtChunk& c, int m,
+                           std::span<const std::byte> in) {
+    if (c.diamonds == 0) return in.empty();
+    auto models = std::make_unique<ErrorModels>();
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    const ChunkFrame F(G, c.cycle, c.box);
+    rc::Decoder dec(in.data(), in.size());
+    const uint32_t qmax = max_error_code(m);
+    bool ok = true;
+    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
+        if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
+        const int far = touches_far_face(G, c.cycle, x, y, z);
+        float& out = e[G.index(x, y, z)];
+        if (dec.decode(models->inf[cls][far])) {
+            out = std::numeric_limits<float>::infinity();
+            lat.set(lat.slot(x, y, z), 0);
+            return;
+        }
+        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
+        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));
+        uint64_t mag;
+        bool neg;
+        rc::decode_int(dec, models->m[cls][lb != 0][nb], mag, neg, 16);
+        const int64_t q = int64_t(lb) + (neg ? -int64_t(mag) : int64_t(mag));
+        if (q < 0 || q >= int64_t(qmax) || (neg && mag == 0)) {
+            ok = false;
+            out = std::numeric_limits<float>::infinity();
+        } else {
+            out = dequantize_error(uint16_t(q), m);
+        }
+        lat.set(lat.slot(x, y, z), mag);
+    });
+    return ok && !dec.bad_end();
+}
+
+}  // namespace tetlod::ht_detail

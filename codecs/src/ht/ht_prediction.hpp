@@ -1,0 +1,332 @@
+#pragma once
+// Residual coding 2 (spec §7.3-§7.5): the chunk lattice, the diamonds' edges and
+// the coarse-to-fine predictors shared by the field and error chunk coders.
+
+#include "ht_chunk_geometry.hpp"
+
+namespace tetlod::ht_detail {
+
+// ---- residual coding 2 (spec §7.3-§7.5, §8.3): class-ordered chunks, adaptive range coder ----
+
+/// Activity bucket of spec §7.5: bit length, compressed above 8.
+inline int activity_bucket(uint64_t a) {
+    const int bl = rc::bit_length(a);
+    return bl <= 8 ? bl : std::min(15, 8 + (bl - 6) / 3);
+}
+
+/// Lattice of a chunk's box at spacing h: per point a saturated magnitude + 1
+/// (0 = not coded yet in this chunk), for the neighbour contexts. The lattice
+/// carries a border of 2 cells below and 1 above on every axis that is never
+/// set, so the neighbour lookups of spec §7.6 need no bounds checks.
+struct ChunkLattice {
+    int t = 0;
+    int64_t x0 = 0, y0 = 0, z0 = 0;
+    int64_t px = 0, pxy = 0;  // strides of the padded lattice
+    std::vector<uint32_t>& mag;
+    ChunkLattice(int cycle, const std::array<int64_t, 6>& b, std::vector<uint32_t>& storage)
+        : t(cycle), mag(storage) {
+        const int64_t h = int64_t{1} << t;
+        auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
+        x0 = up(b[0]);
+        y0 = up(b[1]);
+        z0 = up(b[2]);
+        const int64_t nx = b[3] >= x0 ? (b[3] - x0) / h + 1 : 0;
+        const int64_t ny = b[4] >= y0 ? (b[4] - y0) / h + 1 : 0;
+        const int64_t nz = b[5] >= z0 ? (b[5] - z0) / h + 1 : 0;
+        px = nx + 3;
+        pxy = px * (ny + 3);
+        mag.assign(std::size_t(pxy * (nz + 3)), 0);
+    }
+    /// Slot of a point of the chunk (on the lattice, inside the box).
+    int64_t slot(int64_t x, int64_t y, int64_t z) const {
+        return (((z - z0) >> t) + 2) * pxy + (((y - y0) >> t) + 2) * px + ((x - x0) >> t) + 2;
+    }
+    void set(int64_t s, uint64_t m) { mag[std::size_t(s)] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
+    /// Spec §7.6: mean magnitude of the already coded lattice neighbours among
+    /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
+    uint64_t neighbour_mean(int64_t s) const {
+        const uint32_t* q = mag.data() + s;
+        const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
+        uint64_t sum = 0, n = 0;
+        for (uint32_t w : v) {
+            sum += w ? w - 1 : 0;
+            n += w != 0;
+        }
+        return n ? sum / n : 0;
+    }
+};
+
+/// Offsets of the 27 points c + h·(ox, oy, oz), o in {-1, 0, 1}^3, coded as
+/// (ox+1) + 3(oy+1) + 9(oz+1).
+constexpr int nb27(int ox, int oy, int oz) { return (ox + 1) + 3 * (oy + 1) + 9 * (oz + 1); }
+
+/// Closed form of the edge scan of spec §8.3 for a diamond whose tets lie in the
+/// chunk's box: the distinct edges (a, b) of its tets with their midpoint m on
+/// the h-lattice, as 27-neighbour indices. The set depends only on the sign
+/// pattern sig of §2 (0 on the even axes), which also fixes the class.
+struct DiamondEdges {
+    uint8_t n = 0;
+    uint8_t a[48], b[48], m[48];
+};
+struct DiamondEdgeTable {
+    DiamondEdges by_sig[27];
+    DiamondEdgeTable() {
+        static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+        for (int code = 0; code < 27; ++code) {
+            const int sig[3] = {code % 3 - 1, code / 3 % 3 - 1, code / 9 - 1};
+            if (sig[0] == 0 && sig[1] == 0 && sig[2] == 0) continue;
+            // A representative centre of cycle 0 in [0, 16]^3: an odd axis with
+            // sig = +1 is 3 ((3 + 1) mod 4 = 0), with sig = -1 is 1; an even axis is 2.
+            ht::Pt c;
+            for (int a = 0; a < 3; ++a) c[a] = sig[a] == 0 ? 2 : (sig[a] > 0 ? 3 : 1);
+            ht::Tet tets[8];
+            const int nt = ht::diamond_tets(c, ht::classify_centre(c, 4), 16, tets);
+            DiamondEdges& E = by_sig[code];
+            for (int i = 0; i < nt; ++i)
+                for (const auto& e : kEdges) {
+                    int oa[3], ob[3];
+                    bool lattice = true;
+                    for (int q = 0; q < 3; ++q) {
+                        oa[q] = tets[i][e[0]][q] - c[q];
+                        ob[q] = tets[i][e[1]][q] - c[q];
+                        lattice = lattice && ((oa[q] + ob[q]) & 1) == 0;
+                    }
+                    if (!lattice) continue;
+                    int ia = nb27(oa[0], oa[1], oa[2]), ib = nb27(ob[0], ob[1], ob[2]);
+                    if (ia > ib) std::swap(ia, ib);
+                    bool seen = false;
+                    for (int j = 0; j < E.n; ++j) seen = seen || (E.a[j] == ia && E.b[j] == ib);
+                    if (seen) continue;
+                    E.a[E.n] = uint8_t(ia);
+                    E.b[E.n] = uint8_t(ib);
+                    E.m[E.n] = uint8_t(nb27((oa[0] + ob[0]) / 2, (oa[1] + ob[1]) / 2, (oa[2] + ob[2]) / 2));
+                    ++E.n;
+                }
+        }
+    }
+};
+inline const DiamondEdgeTable& diamond_edge_table() {
+    static const DiamondEdgeTable table;
+    return table;
+}
+
+/// Sign pattern code (index into DiamondEdgeTable) of a diamond centre of cycle t.
+inline int sig_code(int64_t x, int64_t y, int64_t z, int64_t h) {
+    auto sg = [h](int64_t v) { return (v & h) == 0 ? 1 : (((v + h) & (4 * h - 1)) == 0 ? 2 : 0); };
+    return sg(x) + 3 * sg(y) + 9 * sg(z);
+}
+
+/// Per chunk: the linear field offsets of the 27 neighbours at spacing h, and
+/// the test for the chunk interior (c ± h inside the chunk's box, which lies in
+/// B), where every point a predictor or the lattice bound reads is available.
+struct ChunkFrame {
+    int64_t h = 1;
+    std::array<int64_t, 6> cb{};
+    int64_t off[27]{};
+    ChunkFrame(const Geometry& G, int t, const std::array<int64_t, 6>& box) : h(int64_t{1} << t), cb(box) {
+        for (int oz = -1; oz <= 1; ++oz)
+            for (int oy = -1; oy <= 1; ++oy)
+                for (int ox = -1; ox <= 1; ++ox)
+                    off[nb27(ox, oy, oz)] = ((oz * h) * G.ny + oy * h) * G.nx + ox * h;
+    }
+    bool interior(int64_t x, int64_t y, int64_t z) const {
+        return x - h >= cb[0] && y - h >= cb[1] && z - h >= cb[2] && x + h <= cb[3] && y + h <= cb[4] &&
+               z + h <= cb[5];
+    }
+};
+
+/// Per odd-axis mask: the coarse neighbours (±h on every odd axis) and the
+/// fine ones (±h on one even axis) of the neighbour predictor, as 27-indices.
+struct PredictorStencils {
+    uint8_t nc[8]{}, nf[8]{};
+    uint8_t coarse[8][8]{}, fine[8][6]{};
+    PredictorStencils() {
+        for (int mask = 1; mask < 8; ++mask) {
+            for (int s = 0; s < 8; ++s) {
+                int o[3];
+                bool ok = true;
+                for (int a = 0; a < 3; ++a) {
+                    const int bit = (s >> a) & 1;
+                    if (mask & (1 << a)) o[a] = bit ? 1 : -1;
+                    else if (bit) ok = false;
+                    else o[a] = 0;
+                }
+                if (ok) coarse[mask][nc[mask]++] = uint8_t(nb27(o[0], o[1], o[2]));
+            }
+            for (int a = 0; a < 3; ++a) {
+                if (mask & (1 << a)) continue;
+                for (int sg = -1; sg <= 1; sg += 2) {
+                    int o[3] = {0, 0, 0};
+                    o[a] = sg;
+                    fine[mask][nf[mask]++] = uint8_t(nb27(o[0], o[1], o[2]));
+                }
+            }
+        }
+    }
+};
+inline const PredictorStencils& predictor_stencils() {
+    static const PredictorStencils table;
+    return table;
+}
+
+/// Calls f(x, y, z, cls) for the chunk's points in coding order 2: class 0
+/// (cube centres), class 1 (face centres), class 2 (edge midpoints), each z
+/// outer, x inner; the corner cycle t = k is one pass with cls = 3.
+template <class F>
+void for_each_point_v2(const Geometry& G, int t, const std::array<int64_t, 6>& b, F&& f) {
+    if (t == G.k) {
+        G.for_each_point(t, b, [&](int64_t x, int64_t y, int64_t z) { f(x, y, z, 3); });
+        return;
+    }
+    const int64_t h = int64_t{1} << t;
+    auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
+    for (int cls = 0; cls < 3; ++cls) {
+        const int want_odd = 3 - cls;
+        for (int64_t z = up(b[2]); z <= b[5]; z += h) {
+            const int oz = (z & h) != 0;
+            for (int64_t y = up(b[1]); y <= b[4]; y += h) {
+                const int oy = (y & h) != 0;
+                const int64_t xs = up(b[0]);
+                // x parity fixed by the class: odd needed iff want_odd - oz - oy == 1.
+                const int need = want_odd - oz - oy;
+                if (need < 0 || need > 1) continue;
+                int64_t x = xs;
+                if (((x & h) != 0) != (need == 1)) x += h;
+                for (; x <= b[3]; x += 2 * h) f(x, y, z, cls);
+            }
+        }
+    }
+}
+
+struct Prediction {
+    int64_t p = 0;
+    uint64_t spread = 0;
+};
+
+/// Spec §7.3 (Predictor = 2).
+template <class T>
+Prediction predict_v2(const Geometry& G, const T* v, int t, int cls, int64_t x, int64_t y, int64_t z,
+                      const std::array<int64_t, 6>& cb) {
+    Prediction r;
+    if (cls == 3) return r;
+    const int64_t h = int64_t{1} << t;
+    const int64_t c[3] = {x, y, z};
+    int64_t mn = std::numeric_limits<int64_t>::max(), mx = std::numeric_limits<int64_t>::min();
+    auto val = [&](int64_t a, int64_t b2, int64_t d) {
+        const int64_t w = Dom<T>::get(v[G.index(a, b2, d)]);
+        mn = std::min(mn, w);
+        mx = std::max(mx, w);
+        return w;
+    };
+    auto in_chunk = [&](const int64_t q[3]) {
+        for (int a = 0; a < 3; ++a)
+            if (q[a] < cb[a] || q[a] > cb[3 + a]) return false;
+        return true;
+    };
+    // Coarse neighbours (as predictor 1).
+    int64_t lo[3], hi[3];
+    int shift = 0;
+    bool all_in = true;
+    for (int a = 0; a < 3; ++a) {
+        if ((c[a] & h) != 0) {
+            lo[a] = c[a] - h;
+            if (c[a] + h <= G.box_max[a]) {
+                hi[a] = c[a] + h;
+                ++shift;
+            } else {
+                hi[a] = lo[a];
+                all_in = false;
+            }
+        } else {
+            lo[a] = hi[a] = c[a];
+        }
+    }
+    i128 coarse = 0;
+    for (int64_t zz = lo[2];; zz = hi[2]) {
+        for (int64_t yy = lo[1];; yy = hi[1]) {
+            coarse += val(lo[0], yy, zz);
+            if (hi[0] != lo[0]) coarse += val(hi[0], yy, zz);
+            if (yy == hi[1]) break;
+        }
+        if (zz == hi[2]) break;
+    }
+    // Same-cycle neighbours at distance h along the even axes, when all are in the chunk.
+    i128 fine = 0;
+    bool fine_ok = all_in && cls > 0 ;
+    for (int a = 0; a < 3 && fine_ok; ++a) {
+        if ((c[a] & h) != 0) continue;
+        for (int s = -1; s <= 1; s += 2) {
+            int64_t q[3] = {c[0], c[1], c[2]};
+            q[a] += s * h;
+            if (!in_chunk(q)) {
+                fine_ok = false;
+                break;
+            }
+        }
+    }
+    if (fine_ok) {
+        for (int a = 0; a < 3; ++a) {
+            if ((c[a] & h) != 0) continue;
+            for (int s = -1; s <= 1; s += 2) {
+                int64_t q[3] = {c[0], c[1], c[2]};
+                q[a] += s * h;
+                fine += val(q[0], q[1], q[2]);
+            }
+        }
+        if (cls == 1)  // 4 face corners + 2 cube centres: (sum4 + 2 sum2) / 8
+            r.p = int64_t((coarse + 2 * fine) >> 3);
+        else  // edge: 2 ends + 4 face centres: (2 (A + B) + sum4) / 8
+            r.p = int64_t((2 * coarse + fine) >> 3);
+    } else {
+        r.p = int64_t(coarse >> shift);
+    }
+    r.spread = uint64_t(mx) - uint64_t(mn);
+    return r;
+}
+
+/// Predictor 2 in the chunk interior (ChunkFrame::interior): every coarse
+/// neighbour is in B and every fine one in the chunk, so the stencils are fixed.
+/// Same result as predict_v2 there.
+template <class T>
+Prediction predict_interior(const T* v, int64_t idx, int mask, int cls, const ChunkFrame& F) {
+    using Sum = std::conditional_t<(sizeof(T) < 8), int64_t, i128>;
+    const PredictorStencils& P = predictor_stencils();
+    const T* c = v + idx;
+    int64_t w = Dom<T>::get(c[F.off[P.coarse[mask][0]]]);
+    int64_t mn = w, mx = w;
+    Sum coarse = w;
+    for (int i = 1; i < P.nc[mask]; ++i) {
+        w = Dom<T>::get(c[F.off[P.coarse[mask][i]]]);
+        coarse += w;
+        mn = std::min(mn, w);
+        mx = std::max(mx, w);
+    }
+    Prediction r;
+    if (cls == 0) {
+        r.p = int64_t(coarse >> 3);
+    } else {
+        Sum fine = 0;
+        for (int i = 0; i < P.nf[mask]; ++i) {
+            w = Dom<T>::get(c[F.off[P.fine[mask][i]]]);
+            fine += w;
+            mn = std::min(mn, w);
+            mx = std::max(mx, w);
+        }
+        r.p = cls == 1 ? int64_t((coarse + 2 * fine) >> 3) : int64_t((2 * coarse + fine) >> 3);
+    }
+    r.spread = uint64_t(mx) - uint64_t(mn);
+    return r;
+}
+
+template <class T>
+Prediction predict_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int cls, int64_t x,
+                         int64_t y, int64_t z, int64_t idx) {
+    if (cls < 3 && F.interior(x, y, z)) {
+        const int64_t h = F.h;
+        const int mask = ((x & h) ? 1 : 0) | ((y & h) ? 2 : 0) | ((z & h) ? 4 : 0);
+        return predict_interior(v, idx, mask, cls, F);
+    }
+    return predict_v2(G, v, t, cls, x, y, z, F.cb);
+}
+
+}  // namespace tetlod::ht_detail
