@@ -29,8 +29,14 @@ if [ ! -f build-fuzz/CMakeCache.txt ]; then
     -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" >/dev/null
 fi
 cmake --build build-fuzz --parallel "${FUZZ_BUILD_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+# FUZZ_WORK_DIR keeps the corpora, logs and artifacts of a longer campaign.
+if [ -n "${FUZZ_WORK_DIR:-}" ]; then
+  work="$FUZZ_WORK_DIR"
+  mkdir -p "$work"
+else
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' EXIT
+fi
 for t in "${targets[@]}"; do
   c="${corpus_of[$t]}"
   mkdir -p "$work/$t" "$work/$t.artifacts"
@@ -44,7 +50,7 @@ for t in "${targets[@]}"; do
     -print_final_stats=1 "$work/$t" >"$work/$t.log" 2>&1 || { tail -n 60 "$work/$t.log"; echo "fuzz: fuzz_$t FAILED"; exit 1; }
   # The last stats line is the fuzzer's own (isolated children of the HDF5/VDB
   # targets print theirs too when a library crashes in them).
-  grep -E "^stat::number_of_executed_units" "$work/$t.log" | tail -n 1 || true
+  grep -E "^stat::(number_of_executed_units|peak_rss_mb)" "$work/$t.log" | tail -n 2 || true
   grep -E "cov: [0-9]+" "$work/$t.log" | tail -n 1
   echo "fuzz: no crash in fuzz_$t (${seconds}s)"
 done

@@ -203,7 +203,7 @@ void LodFlags::validate(bool need_error) const {
                     "give --error E (e.g. 0.5 or 1%) or --full for the full-resolution mesh");
     if (!error_out.empty() && !has_region())
         throw Error(ErrorCode::InvalidArgument,
-                    "--error-out applies outside a region: give --box and/or --isovalue too");
+                    "--error-out applies outside a region: give --box, --isovalue or another region flag too");
 }
 
 ErrorThreshold LodFlags::error_in() const {
@@ -219,6 +219,7 @@ LodQuery LodFlags::region_query(const Dims* dims) const {
     q.full = full;
     if (!box.empty()) q.box = parse_box(box, "--box");
     for (const auto& s : isovalues) q.isovalues.push_back(parse_number(s, "--isovalue"));
+    apply_region_flags(regions, q);
     if (dims) check_box_meets(q, *dims);
     return q;
 }
@@ -239,10 +240,40 @@ std::string LodFlags::describe(const LodQuery& q, const std::array<double, 2>& r
     if (full) return "full resolution";
     std::string d = "error <= " + format_error(q.error_in, range);
     if (has_region())
-        d += " in the region (" + (box.empty() ? "" : "box " + box) +
-             (!box.empty() && !isovalues.empty() ? ", " : "") +
-             (isovalues.empty() ? "" : std::to_string(isovalues.size()) + " isovalue(s)") + "), " +
-             format_error(q.error_out, range) + " elsewhere";
+        d += " in the region (" + describe_region(q, box) + "), " + format_error(q.error_out, range) + " elsewhere";
+    return d;
+}
+
+void add_region_flags(CLI::App& sub, RegionFlags& regions, const std::string& group) {
+    for (const QueryRegionKind& kind : query_region_kinds()) {
+        const std::string name = kind.name;
+        sub.add_option_function<std::string>(
+               "--" + name, [&regions, name](const std::string& text) { regions[name] = text; }, kind.help)
+            ->group(group)
+            ->type_name(kind.syntax)
+            ->check(check_with([parse = kind.parse](const std::string& s) { parse(s); }));
+    }
+}
+
+void apply_region_flags(const RegionFlags& regions, LodQuery& query) {
+    for (const auto& [name, text] : regions) {
+        const QueryRegionKind* kind = find_query_region_kind(name);
+        if (!kind) throw Error(ErrorCode::InvalidArgument, "--" + name + ": no such query region");
+        try {
+            query.regions.push_back(kind->parse(text));
+        } catch (const Error& e) {
+            throw Error(e.code(), "--" + name + ": " + e.what());
+        }
+    }
+}
+
+std::string describe_region(const LodQuery& q, const std::string& box_text) {
+    std::vector<std::string> parts;
+    if (q.box) parts.push_back("box " + box_text);
+    if (!q.isovalues.empty()) parts.push_back(std::to_string(q.isovalues.size()) + " isovalue(s)");
+    for (const auto& r : q.regions) parts.push_back(r->describe());
+    std::string d;
+    for (const auto& p : parts) d += (d.empty() ? "" : ", ") + p;
     return d;
 }
 
@@ -266,6 +297,7 @@ void add_lod_flags(CLI::App& sub, LodFlags& f, const std::string& group,
         ->allow_extra_args(false)  // one value per flag: never swallow the positionals
         ->delimiter(',')
         ->check(check_with([](const std::string& s) { parse_number(s, ""); }));
+    add_region_flags(sub, f.regions, group);
     sub.add_flag("--full", f.full, full_help)->group(group);
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -65,14 +66,26 @@ struct ErrorThreshold {
     double resolve(const std::array<double, 2>& range) const;
 };
 
+/// Texts of the registered query-region flags given, by region name.
+using RegionFlags = std::map<std::string, std::string>;
+
+/// --<name> TEXT for every registered query region, into `regions` (group `group`).
+void add_region_flags(CLI::App& sub, RegionFlags& regions, const std::string& group);
+/// Puts the regions given into `query` (parsed; InvalidArgument naming the flag).
+void apply_region_flags(const RegionFlags& regions, LodQuery& query);
+/// "box B, 2 isovalue(s), sphere ..." for the parts of `query`'s region.
+std::string describe_region(const LodQuery& query, const std::string& box_text);
+
 /// The level-of-detail flags that extract and decode share, as typed: --error,
 /// --error-out, --box, --isovalue, --full. Empty strings: not given.
 struct LodFlags {
     std::string error, error_out, box;
     std::vector<std::string> isovalues;
+    /// --<name> TEXT of the registered query regions (tetlod/models/query_region.hpp).
+    RegionFlags regions;
     bool full = false;
 
-    bool has_region() const { return !box.empty() || !isovalues.empty(); }
+    bool has_region() const { return !box.empty() || !isovalues.empty() || !regions.empty(); }
     /// Refuses contradictory or missing flags (--error-out without a region;
     /// neither --error nor --full when `need_error`).
     void validate(bool need_error) const;

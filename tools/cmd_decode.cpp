@@ -77,7 +77,7 @@ int run_decode(const DecodeArgs& a) {
         return 0;
     }
 
-    const bool mt = resolve_model(a.model, a.input) == "mt";
+    const bool mt = resolve_model(a.model, a.input) == ModelKind::Mt;
     const auto error_in = a.lod.error_in();
     const auto error_out = a.lod.error_out_threshold();
     LodQuery query = a.lod.region_query(nullptr);

@@ -56,7 +56,7 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
 }
 
 int run_extract(const ExtractArgs& a) {
-    const bool mt = resolve_model(a.model, a.input) == "mt";
+    const bool mt = resolve_model(a.model, a.input) == ModelKind::Mt;
     if (mt && a.pad)
         throw Error(ErrorCode::InvalidArgument,
                     "--pad applies to the HT only (the MT always covers the data's bounding box): "

@@ -18,6 +18,7 @@ namespace {
 struct IsoArgs {
     std::string input, output, model, error = "0", error_out, box, format;
     std::vector<std::string> isovalues;
+    RegionFlags regions;
     bool ascii = false, pad = false, no_normals = false, ply_extras = false;
     VolumeFlags volume;
 };
@@ -35,8 +36,9 @@ int run_isosurface(const IsoArgs& a) {
     LodQuery query;
     for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
     if (!a.box.empty()) query.box = parse_box(a.box, "--box");
+    apply_region_flags(a.regions, query);
 
-    const LodModel model = load_model(a.input, parse_model_kind(resolve_model(a.model, a.input)), a.volume, a.pad, false);
+    const LodModel model = load_model(a.input, resolve_model(a.model, a.input), a.volume, a.pad, false);
     const auto range = model.range;
     query.error_in = error_in.resolve(range);
     query.error_out = error_out.resolve(range);
@@ -60,9 +62,8 @@ int run_isosurface(const IsoArgs& a) {
     o << "input    " << a.input << ": " << format_dims(model.dims) << ", values "
       << format_number(range[0]) << ".." << format_number(range[1]) << ", model "
       << model_kind_name(model.kind) << "\n";
-    o << "query    error <= " << format_error(query.error_in, range) << " near "
-      << query.isovalues.size() << " isovalue(s)" << (a.box.empty() ? "" : " in box " + a.box)
-      << ", " << format_error(query.error_out, range) << " elsewhere\n";
+    o << "query    error <= " << format_error(query.error_in, range) << " in the region ("
+      << describe_region(query, a.box) << "), " << format_error(query.error_out, range) << " elsewhere\n";
     o << "tets     " << mesh.tet_count() << " (" << stats.crossed_tets << " crossed)\n";
     o << "surface  " << surface.face_count() << " triangles, " << surface.vertex_count()
       << " vertices";
@@ -106,6 +107,7 @@ const CommandRegistration registration{Command{
         sub.add_option("--box", a->box, "Only refine inside index box x0,y0,z0,x1,y1,z1")
             ->group(lod)
             ->check(check_with([](const std::string& s) { parse_box(s, ""); }));
+        add_region_flags(sub, a->regions, lod);
         const std::string model = "Model and output";
         sub.add_option("--model", a->model, "Multiresolution model: ht or mt (a .tlod must hold it; default: ht, or the MT "
                        "of a .tlod holding only an MT)")

@@ -7,17 +7,15 @@ ModelKind parse_model_kind(const std::string& text) {
     throw Error(ErrorCode::InvalidArgument, "--model '" + text + "': expected ht or mt");
 }
 
-std::string resolve_model(const std::string& given, const std::string& input) {
-    if (!is_container_path(input)) return given.empty() ? "ht" : given;
-    const ContainerModels m = container_models(input);
-    if (!m.ht && !m.mt) return given.empty() ? "ht" : given;  // unreadable: the reader says why
-    if (given.empty()) return m.mt && !m.ht ? "mt" : "ht";   // the only model present
-    if ((given == "ht" && !m.ht) || (given == "mt" && !m.mt))
-        throw Error(ErrorCode::InvalidArgument,
-                    "--model " + given + ": '" + input + "' holds no " + (given == "ht" ? "HT" : "MT") +
-                        " (it holds the " + (m.ht ? "HT" : "MT") + "; drop --model or use --model " +
-                        (m.ht ? "ht" : "mt") + ")");
-    return given;
+ModelKind resolve_model(const std::string& given, const std::string& input) {
+    std::optional<ModelKind> requested;
+    if (!given.empty()) requested = parse_model_kind(given);
+    try {
+        return choose_model(input, requested);
+    } catch (const Error& e) {
+        const char* other = *requested == ModelKind::Ht ? "mt" : "ht";
+        throw Error(e.code(), "--model " + given + ": " + e.what() + "; drop --model or use --model " + other);
+    }
 }
 
 LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& flags, bool pad,

@@ -10,10 +10,9 @@ namespace tetlod::cli {
 /// "ht"/"HT" or "mt"/"MT"; anything else is InvalidArgument naming --model.
 ModelKind parse_model_kind(const std::string& text);
 
-/// --model as given; when not given (empty), the only model of a container that
-/// holds just an MT is "mt", everything else "ht". Asking a container for a model
-/// it lacks is InvalidArgument saying which it holds.
-std::string resolve_model(const std::string& given, const std::string& input);
+/// choose_model (tetlod/model.hpp) for --model as given (empty: not given), with
+/// the flag named in the message when the container lacks the model asked for.
+ModelKind resolve_model(const std::string& given, const std::string& input);
 
 /// open_model with the volume flags; throws the failure.
 LodModel load_model(const std::string& path, ModelKind kind, const VolumeFlags& flags, bool pad,

@@ -38,6 +38,19 @@ LodModel open_container_model(const std::string& path, ModelKind kind) {
 
 }  // namespace
 
+ModelKind choose_model(const std::string& path, std::optional<ModelKind> requested) {
+    if (!is_container_path(path)) return requested.value_or(ModelKind::Ht);
+    const ContainerModels held = container_models(path);
+    if (!held.ht && !held.mt) return requested.value_or(ModelKind::Ht);  // unreadable: the reader says why
+    const ModelKind only = held.ht ? ModelKind::Ht : ModelKind::Mt;
+    if (!requested) return held.ht && held.mt ? ModelKind::Ht : only;
+    const bool has = *requested == ModelKind::Ht ? held.ht : held.mt;
+    if (!has)
+        throw Error(ErrorCode::InvalidArgument, "'" + path + "' holds no " + model_kind_name(*requested) +
+                                                    " (it holds the " + model_kind_name(only) + ")");
+    return *requested;
+}
+
 LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& options) {
     Stopwatch clock;
     if (kind == ModelKind::Ht) {

@@ -48,7 +48,7 @@ Threshold threshold(const py::object& given, double if_none) {
 }
 
 QueryArgs query_args(const py::object& error, const py::object& error_out, const py::object& box,
-                     const py::object& isovalues, bool full) {
+                     const py::object& isovalues, bool full, const py::object& regions) {
     if (error.is_none() && !full)
         throw Error(ErrorCode::InvalidArgument,
                     "give error= (e.g. 0.5 or '1%'; negative: full resolution) or full=True");
@@ -67,6 +67,37 @@ QueryArgs query_args(const py::object& error, const py::object& error_out, const
         else
             q.isovalues = isovalues.cast<std::vector<double>>();
     }
+    if (!regions.is_none()) {
+        if (!py::isinstance<py::dict>(regions))
+            throw Error(ErrorCode::InvalidArgument, "regions: expected a dict {name: parameters}");
+        for (const auto& [key, value] : regions.cast<py::dict>()) {
+            const std::string name = py::str(key);
+            const QueryRegionKind* kind = find_query_region_kind(name);
+            if (!kind) {
+                std::string known;
+                for (const auto& k : query_region_kinds()) {
+                    if (!known.empty()) known += ", ";
+                    known += k.name;
+                }
+                throw Error(ErrorCode::InvalidArgument, "regions: no query region '" + name + "' (known: " + known + ")");
+            }
+            // Text as on the command line; a sequence of numbers is joined by commas.
+            std::string text;
+            if (py::isinstance<py::str>(value)) {
+                text = value.cast<std::string>();
+            } else {
+                for (const auto& item : value) {
+                    if (!text.empty()) text += ',';
+                    text += std::string(py::str(item));
+                }
+            }
+            try {
+                q.regions.push_back(kind->parse(text));
+            } catch (const Error& e) {
+                throw Error(e.code(), "regions: " + std::string(e.what()));
+            }
+        }
+    }
     q.full = full;
     return q;
 }
@@ -77,6 +108,7 @@ LodQuery QueryArgs::resolve(const std::array<double, 2>& range) const {
     query.error_out = error_out.resolve(range);
     query.box = box;
     query.isovalues = isovalues;
+    query.regions = regions;
     query.full = full;
     return query;
 }

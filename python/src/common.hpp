@@ -3,6 +3,7 @@
 // keyword arguments every query and volume read accepts, model names.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/models/lod_model.hpp"
+#include "tetlod/models/query_region.hpp"
 #include "tetlod/models/lod_query.hpp"
 
 namespace tetlod::python {
@@ -41,17 +43,21 @@ struct Threshold {
 Threshold threshold(const pybind11::object& given, double if_none);
 
 /// The LOD query of the keyword arguments (error, error_out, box, isovalues,
-/// full), resolved against a value range. Without error and full, error = full
+/// regions, full), resolved against a value range. Without error and full, error = full
 /// resolution is refused: the caller must say what it wants.
 struct QueryArgs {
     Threshold error, error_out;
     std::optional<std::array<int64_t, 6>> box;
     std::vector<double> isovalues;
+    std::vector<std::shared_ptr<const QueryRegion>> regions;  // registered kinds, by name
     bool full = false;
     LodQuery resolve(const std::array<double, 2>& range) const;
 };
+/// `regions`: None or a dict {name: text or numbers} of registered query
+/// regions (tetlod/models/query_region.hpp), e.g. {"sphere": (32, 32, 32, 10)}.
 QueryArgs query_args(const pybind11::object& error, const pybind11::object& error_out,
-                     const pybind11::object& box, const pybind11::object& isovalues, bool full);
+                     const pybind11::object& box, const pybind11::object& isovalues, bool full,
+                     const pybind11::object& regions = pybind11::none());
 
 /// Volume read options from keyword arguments: dims=(x,y,z), dtype="u8".., endian,
 /// header_bytes, spacing, origin, grid (OpenVDB), axis_order (HDF5),

@@ -1,6 +1,7 @@
 // Models and their queries from Python: tetlod.Model (an HT or MT in memory,
 // opened from a container or built from a volume file), and the one-call forms
 // extract / isosurface / stats on a path. Long calls release the GIL.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,14 +19,11 @@ namespace py = pybind11;
 namespace tetlod::python {
 namespace {
 
-/// model=None: the HT, or the MT of a container that holds only an MT (as the CLI).
+/// model=None: choose_model's default (a container's only model, else the HT).
 ModelKind choose_model(const py::object& model, const std::string& path) {
-    if (!model.is_none()) return model_kind(model.cast<std::string>());
-    if (is_container_path(path)) {
-        const ContainerModels held = container_models(path);
-        if (held.mt && !held.ht) return ModelKind::Mt;
-    }
-    return ModelKind::Ht;
+    std::optional<ModelKind> requested;
+    if (!model.is_none()) requested = model_kind(model.cast<std::string>());
+    return tetlod::choose_model(path, requested);
 }
 
 LodModel open_path(const std::string& path, const py::object& model, bool pad, const py::kwargs& kwargs) {
@@ -97,14 +95,16 @@ void bind_model_class(py::module_& m) {
         .def(
             "extract",
             [](const LodModel& lm, py::object error, py::object error_out, py::object box,
-               py::object isovalues, bool full) {
-                return model_extract(lm, query_args(error, error_out, box, isovalues, full));
+               py::object isovalues, bool full, py::object regions) {
+                return model_extract(lm, query_args(error, error_out, box, isovalues, full, regions));
             },
             py::arg("error") = py::none(), py::arg("error_out") = py::none(),
             py::arg("box") = py::none(), py::arg("isovalues") = py::none(), py::arg("full") = false,
+            py::arg("regions") = py::none(),
             "The LOD mesh of a query: error (field units, '1%' of the range, 'inf'; negative: full "
             "resolution) inside the region, error_out elsewhere; region = box (x0,y0,z0,x1,y1,z1 "
-            "inclusive, index space) and/or isovalues; full=True: the reference mesh.")
+            "inclusive, index space) and/or isovalues and/or regions ({'sphere': (cx, cy, cz, r)}, any "
+            "kind in tetlod.query_regions()); full=True: the reference mesh.")
         .def(
             "isosurface",
             [](const LodModel& lm, py::object isovalues, py::object error, bool full) {
@@ -126,14 +126,22 @@ void bind_model_class(py::module_& m) {
 
 void bind_models(py::module_& m) {
     bind_model_class(m);
+    m.def(
+        "query_regions",
+        [] {
+            py::dict out;
+            for (const auto& k : query_region_kinds()) out[py::str(k.name)] = k.syntax + ": " + k.help;
+            return out;
+        },
+        "The query regions extract(regions=...) takes: {name: 'syntax: description'}.");
     m.def("open", &open_path, py::arg("path"), py::arg("model") = py::none(), py::arg("pad") = false,
           "The model of a path: a .tlod container's stored HT or MT, or a volume file read and "
           "built (model 'ht' or 'mt'; volume keywords as for read_volume). Safe on untrusted files.");
     m.def(
         "extract",
         [](const std::string& path, py::object model, py::object error, py::object error_out,
-           py::object box, py::object isovalues, bool full, bool pad, py::kwargs kwargs) {
-            const QueryArgs args = query_args(error, error_out, box, isovalues, full);
+           py::object box, py::object isovalues, bool full, bool pad, py::object regions, py::kwargs kwargs) {
+            const QueryArgs args = query_args(error, error_out, box, isovalues, full, regions);
             const ModelKind kind = choose_model(model, path);
             if (!is_container_path(path)) return model_extract(open_path(path, py::cast(model_kind_name(kind)), pad, kwargs), args);
             if (py::len(kwargs) != 0 || pad)
@@ -157,6 +165,7 @@ void bind_models(py::module_& m) {
         py::arg("path"), py::arg("model") = py::none(), py::arg("error") = py::none(),
         py::arg("error_out") = py::none(), py::arg("box") = py::none(),
         py::arg("isovalues") = py::none(), py::arg("full") = false, py::arg("pad") = false,
+        py::arg("regions") = py::none(),
         "The LOD mesh of a query on a .tlod container (the HT read lazily) or a volume file "
         "(model built first). Query arguments as for Model.extract; returns a Mesh.");
     m.def(

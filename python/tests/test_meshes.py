@@ -52,6 +52,30 @@ def test_region_queries(container):
         tetlod.extract(container)
 
 
+@pytest.mark.parametrize("model", ["ht", "mt"])
+def test_sphere_region(container, model):
+    assert "sphere" in tetlod.query_regions()
+    coarse = tetlod.extract(container, model=model, error="inf")
+    ball = tetlod.extract(container, model=model, error=0, regions={"sphere": (8, 8, 8, 4)})
+    check_mesh(ball)
+    assert ball.tet_count > coarse.tet_count
+    # the same region as text, and through a model in memory
+    text = tetlod.extract(container, model=model, error=0, regions={"sphere": "8,8,8,4"})
+    assert np.array_equal(text.tets, ball.tets)
+    held = tetlod.open(container, model=model).extract(error=0, regions={"sphere": [8, 8, 8, 4]})
+    assert np.array_equal(held.tets, ball.tets) and np.array_equal(held.points, ball.points)
+    # a tet with a corner in the ball meets it, so it honours error 0
+    corners = ball.points[ball.tets].astype(np.float64)
+    near = (np.linalg.norm(corners - np.array([8.0, 8.0, 8.0]), axis=2) <= 4).any(axis=1)
+    assert near.sum() > 0 and float(ball.error[near].max()) == 0.0
+    with pytest.raises(tetlod.Error, match="no query region 'cube'"):
+        tetlod.extract(container, model=model, error=0, regions={"cube": "1"})
+    with pytest.raises(tetlod.Error, match="radius is negative"):
+        tetlod.extract(container, model=model, error=0, regions={"sphere": (1, 2, 3, -1)})
+    with pytest.raises(tetlod.Error, match="expected a dict"):
+        tetlod.extract(container, model=model, error=0, regions=[("sphere", "1,2,3,4")])
+
+
 def test_arrays_are_views_that_keep_the_mesh_alive(container):
     mesh = tetlod.extract(container, error="2%")
     first, second = mesh.points, mesh.points

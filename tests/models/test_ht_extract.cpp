@@ -14,6 +14,7 @@
 #include <memory>
 #include <sstream>
 
+#include "region_oracles.hpp"
 #include "support/ht_reference.hpp"
 #include "support/mesh_checker.hpp"
 #include "support/volume_generators.hpp"
@@ -39,6 +40,7 @@ std::string query_str(const LodQuery& q) {
         o << " box=[" << b[0] << "," << b[1] << "," << b[2] << ".." << b[3] << "," << b[4] << "," << b[5] << "]";
     }
     for (double v : q.isovalues) o << " iso=" << v;
+    for (const auto& r : q.regions) o << " " << r->describe();
     return o.str();
 }
 
@@ -62,6 +64,7 @@ TetBound query_bound(const LodQuery& q, const Volume& field, bool for_minimality
             in = tet_meets_box(t, {int32_t(b[0]), int32_t(b[1]), int32_t(b[2])},
                                {int32_t(b[3]), int32_t(b[4]), int32_t(b[5])});
         }
+        in = in && oracle_meets_regions(q, t);
         bool iso_exact = true;
         if (in && !q.isovalues.empty()) {
             TetStats s = exact_tet_stats(field, t);
@@ -286,6 +289,29 @@ TEST_P(HtSynthetic, QueriesPassTheOracle) {
         q.error_out = 0.2 * span;
         run_query(model, q, label, &oracle);
         q.box = boxes[0];  // box AND iso
+        run_query(model, q, label, &oracle);
+    }
+    // sphere queries (a registered region): centred inside, on a corner, reaching
+    // in from outside, a single point, and AND-ed with a box
+    const int64_t R = std::max<int64_t>(1, std::max({X, Y, Z}) / 4);
+    const std::vector<std::pair<std::array<int64_t, 3>, int64_t>> spheres = {
+        {{X / 2, Y / 2, Z / 2}, R}, {{0, 0, 0}, R + 1}, {{X + R / 2 + 1, Y / 2, Z / 3}, R}, {{X / 3, Y, Z / 2}, 0}};
+    for (const auto& [centre, radius] : spheres) {
+        LodQuery q;
+        q.regions = {sphere_region(centre, radius)};
+        q.error_in = 0;
+        q.error_out = kInf;
+        run_query(model, q, label, &oracle);
+        q.error_in = 0.02 * span;
+        q.error_out = 0.4 * span;
+        run_query(model, q, label, &oracle);
+    }
+    {
+        LodQuery q;
+        q.regions = {sphere_region({X / 2, Y / 2, Z / 2}, R + 1)};
+        q.box = std::array<int64_t, 6>{0, 0, 0, X / 2, Y, Z};
+        q.error_in = 0;
+        q.error_out = kInf;
         run_query(model, q, label, &oracle);
     }
 }

@@ -143,6 +143,49 @@ TetStats exact_tet_stats(const Volume& v, const TetPts& t) {
     return st;
 }
 
+bool tet_meets_ball(const TetPts& t, const std::array<int64_t, 3>& c, int64_t r) {
+    using I = __int128;
+    using V = std::array<I, 3>;
+    auto vec = [](const Pt& a, const Pt& b) { return V{I(b[0]) - a[0], I(b[1]) - a[1], I(b[2]) - a[2]}; };
+    auto to_c = [&](const Pt& a) { return V{I(c[0]) - a[0], I(c[1]) - a[1], I(c[2]) - a[2]}; };
+    auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    auto cross = [](const V& a, const V& b) {
+        return V{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    };
+    const I r2 = I(r) * r;
+    // a vertex in the ball
+    for (const Pt& p : t)
+        if (dot(to_c(p), to_c(p)) <= r2) return true;
+    // the nearest point inside an edge: 0 < (c-a).d < |d|^2 and the distance
+    // |c-a|^2 - ((c-a).d)^2/|d|^2 <= r^2, multiplied out by |d|^2
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+            const V d = vec(t[i], t[j]), w = to_c(t[i]);
+            const I dd = dot(d, d), wd = dot(w, d);
+            if (wd > 0 && wd < dd && dot(w, w) * dd - wd * wd <= r2 * dd) return true;
+        }
+    // the centre's projection inside a face, within r of its plane:
+    // ((c-a).n)^2 <= r^2 |n|^2
+    static constexpr int kFaces[4][4] = {{1, 2, 3, 0}, {0, 2, 3, 1}, {0, 1, 3, 2}, {0, 1, 2, 3}};
+    int inner_sides = 0;
+    for (const auto& f : kFaces) {
+        const Pt &a = t[f[0]], &b = t[f[1]], &e = t[f[2]];
+        const V n = cross(vec(a, b), vec(a, e));
+        const I side = dot(n, to_c(a)), opposite = dot(n, vec(a, t[f[3]]));
+        if ((side >= 0) == (opposite > 0) || side == 0) ++inner_sides;
+        bool within = true;
+        const Pt* corner[3] = {&a, &b, &e};
+        for (int k = 0; k < 3; ++k) {
+            const Pt& p = *corner[k];
+            const Pt& q = *corner[(k + 1) % 3];
+            if (dot(cross(vec(p, q), to_c(p)), n) < 0) within = false;
+        }
+        if (within && side * side <= r2 * dot(n, n)) return true;
+    }
+    // the centre inside the tet (on the inner side of every face plane)
+    return inner_sides == 4;
+}
+
 bool tet_meets_box(const TetPts& t, const Pt& lo, const Pt& hi) {
     // Separating axis theorem for two convex polytopes: box axes, the 4 face normals
     // of the tet, and the cross products of the 6 tet edges with the 3 box axes.

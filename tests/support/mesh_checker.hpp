@@ -59,6 +59,11 @@ void for_each_tet_point(const TetPts& tet, const std::function<void(const Pt&, b
 /// Closed tet meets closed axis-aligned box [lo, hi] (separating axis test, exact).
 bool tet_meets_box(const TetPts& tet, const Pt& lo, const Pt& hi);
 
+/// Closed tet meets closed ball (integer centre and radius): exact, in integers,
+/// by the feature the ball's centre is nearest to: a vertex, the inside of an
+/// edge, the inside of a face, or the tet's interior.
+bool tet_meets_ball(const TetPts& tet, const std::array<int64_t, 3>& centre, int64_t radius);
+
 struct CheckOptions {
     bool validity = true;
     bool conformity = true;

@@ -7,6 +7,7 @@
 // hostile file gives an Error naming the file, never a crash or unbounded
 // allocation. build_model works on trusted in-memory data (a Volume whose
 // data size matches dims x type).
+#include <optional>
 #include <string>
 
 #include "tetlod/converters/volume_read_options.hpp"
@@ -28,6 +29,14 @@ struct ModelBuildOptions {
 /// Builds `kind` from `volume` (moved in). Throws tetlod::Error(InvalidArgument)
 /// for a volume the model cannot represent (e.g. a dimension below 2).
 LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& options = {});
+
+/// Which model of `path` to use. Given `requested`: that model, unless `path` is
+/// a container that lacks it (InvalidArgument naming the file and the model it
+/// holds). Not given: a container's only model when it holds just one, else the
+/// HT (a volume file builds either; the HT is the default). Reads only the
+/// container's header and section table; an unreadable container is left to the
+/// reader that opens it next, which says why.
+ModelKind choose_model(const std::string& path, std::optional<ModelKind> requested = std::nullopt);
 
 /// The model of `path`: from a .tlod container (recognised by its first bytes or
 /// the .tlod extension) the stored HT or MT; an MT request on a container without

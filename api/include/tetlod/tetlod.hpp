@@ -28,6 +28,7 @@
 #include "tetlod/models/isosurface.hpp"
 #include "tetlod/models/lod_model.hpp"
 #include "tetlod/models/lod_query.hpp"
+#include "tetlod/models/query_region.hpp"
 
 // Containers: write, inspect, extract, decode.
 #include "tetlod/container.hpp"

@@ -16,6 +16,8 @@ void check_query(const LodQuery& q) {
     }
     for (double v : q.isovalues)
         if (!std::isfinite(v)) throw Error(ErrorCode::InvalidArgument, "isovalue must be finite");
+    for (const auto& r : q.regions)
+        if (!r) throw Error(ErrorCode::InvalidArgument, "query region is null");
     if (std::isnan(q.error_in) || std::isnan(q.error_out))
         throw Error(ErrorCode::InvalidArgument, "error bound is NaN");
 }

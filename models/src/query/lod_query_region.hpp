@@ -9,6 +9,7 @@
 
 #include "tetlod/models/detail/tet_box_intersection.hpp"
 #include "tetlod/models/lod_query.hpp"
+#include "tetlod/models/query_region.hpp"
 
 namespace tetlod::detail {
 
@@ -53,6 +54,11 @@ bool in_query_region(const LodQuery& q, const std::array<std::array<int32_t, 3>,
         for (double v : q.isovalues) hit = hit || (lo <= v && v <= hi);
         if (!hit) return false;
     }
+    if (!q.regions.empty()) {
+        const std::array<double, 4> values{value_of(0), value_of(1), value_of(2), value_of(3)};
+        for (const auto& r : q.regions)
+            if (!r->meets(corners, values, err)) return false;
+    }
     return true;
 }
 
@@ -65,7 +71,7 @@ double query_bound(const LodQuery& q, const QueryBounds& b, const std::array<std
 }
 
 /// Throws InvalidArgument for a query no model can answer: an inverted box, a
-/// non-finite isovalue, a NaN bound.
+/// non-finite isovalue, a NaN bound, a null region.
 void check_query(const LodQuery& q);
 
 }  // namespace tetlod::detail

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "../region_oracles.hpp"
 #include "support/mesh_checker.hpp"
 #include "support/volume_generators.hpp"
 #include "tetlod/models/lod_query.hpp"
@@ -29,6 +30,7 @@ inline std::string query_str(const LodQuery& q) {
         o << " box=[" << b[0] << "," << b[1] << "," << b[2] << ".." << b[3] << "," << b[4] << "," << b[5] << "]";
     }
     for (double v : q.isovalues) o << " iso=" << v;
+    for (const auto& r : q.regions) o << " " << r->describe();
     return o.str();
 }
 
@@ -46,6 +48,7 @@ inline std::function<double(const TetPts&)> mt_query_bound(const LodQuery& q, co
             in = tet_meets_box(t, {int32_t(b[0]), int32_t(b[1]), int32_t(b[2])},
                                {int32_t(b[3]), int32_t(b[4]), int32_t(b[5])});
         }
+        in = in && oracle_meets_regions(q, t);
         bool iso_exact = true;
         if (in && !q.isovalues.empty()) {
             TetStats s = exact_tet_stats(field, t);

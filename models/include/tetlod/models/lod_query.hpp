@@ -4,10 +4,13 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <vector>
 
 namespace tetlod {
+
+class QueryRegion;  // tetlod/models/query_region.hpp
 
 struct LodQuery {
     static constexpr double kUnbounded = std::numeric_limits<double>::infinity();
@@ -23,13 +26,16 @@ struct LodQuery {
     /// Region part 2: isovalues. A tet is in it when one of them lies in the
     /// conservative value range of the tet (see the model's documentation).
     std::vector<double> isovalues;
-    /// When both a box and isovalues are given, a tet is in the region only
-    /// if it meets the box AND may be crossed by an isosurface.
+    /// Region part 3: further regions (a sphere, or a program's own; see
+    /// tetlod/models/query_region.hpp). A tet is in each when it meets it.
+    std::vector<std::shared_ptr<const QueryRegion>> regions;
+    /// When several parts are given, a tet is in the region only if it is in
+    /// every part (e.g. meets the box AND may be crossed by an isosurface).
 
     /// The full-resolution reference mesh of the model, regardless of errors.
     bool full = false;
 
-    bool has_region() const { return box.has_value() || !isovalues.empty(); }
+    bool has_region() const { return box.has_value() || !isovalues.empty() || !regions.empty(); }
 };
 
 }  // namespace tetlod
