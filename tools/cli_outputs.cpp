@@ -71,8 +71,23 @@ void precheck_output(const OutputPolicy& policy, const std::string& output) {
     for (const auto& f : mesh_companion_files(output)) policy.check_output(f);
 }
 
-std::string stdin_as_file() {
+namespace {
+StdinSpool& stdin_spool() {
     static StdinSpool spool;
+    return spool;
+}
+}  // namespace
+
+std::string with_stdin_named(std::string message) {
+    const std::string& file = stdin_spool().file;
+    if (file.empty()) return message;
+    for (std::size_t at = message.find(file); at != std::string::npos; at = message.find(file, at + 7))
+        message.replace(at, file.size(), "<stdin>");
+    return message;
+}
+
+std::string stdin_as_file() {
+    StdinSpool& spool = stdin_spool();
     if (!spool.file.empty()) return spool.file;
     const char* tmp = std::getenv("TMPDIR");
     std::string templ = std::string(tmp && *tmp ? tmp : "/tmp") + "/tetlod-stdin.XXXXXX";

@@ -22,6 +22,9 @@ void precheck_output(const OutputPolicy& policy, const std::string& output);
 /// "-" as an input: standard input, copied once to a private temporary file
 /// (removed at exit) so every reader can read it. Returns the file's path.
 std::string stdin_as_file();
+/// `message` with the spool file of standard input (if any) named "<stdin>", so
+/// that errors about a '-' input speak of what the user gave.
+std::string with_stdin_named(std::string message);
 
 /// The command printed its own line for `path`: main does not repeat it.
 void mark_reported(const std::string& path);

@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
             return code;
         }
     } catch (const Error& e) {
-        std::cerr << "tetlod: error: " << e.what() << "\n";
+        std::cerr << "tetlod: error: " << cli::with_stdin_named(e.what()) << "\n";
         return exit_code_for(e.code());
     } catch (const std::bad_alloc&) {
         std::cerr << "tetlod: error: out of memory\n";

@@ -137,6 +137,11 @@ TEST(CliOutputs, DashIsStdoutAndStdinWhereTheFormatStreams) {
     }
     r = run_no_force("extract '" + d + "/v.tlod' - --format mesh --error 1");
     EXPECT_EQ(r.code, 2) << r.err;
+    // A broken container on stdin: the error speaks of <stdin>, not of the spool file.
+    r = sh("head -c 300 '" + d + "/v.tlod' | " + cli + " decode - '" + d + "/broken.raw'");
+    EXPECT_EQ(r.code, 4) << r.err;
+    EXPECT_NE(r.err.find("<stdin>"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("tetlod-stdin"), std::string::npos) << r.err;
 }
 
 TEST(CliOutputs, Hdf5OutputAddsOrReplacesOneDatasetOnly) {
