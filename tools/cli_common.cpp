@@ -1,5 +1,7 @@
 #include "cli_common.hpp"
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <cmath>
@@ -47,6 +49,17 @@ int64_t parse_int(const std::string& text, const std::string& flag, const std::s
 
 int verbosity() { return g_verbosity; }
 void set_verbosity(int level) { g_verbosity = level; }
+
+namespace {
+std::optional<bool> g_progress;
+}  // namespace
+
+void set_progress(std::optional<bool> forced) { g_progress = forced; }
+
+bool show_progress() {
+    if (g_progress) return *g_progress;
+    return g_verbosity >= 0 && ::isatty(STDERR_FILENO);
+}
 
 std::ostream& out() {
     static std::ostream null_stream(nullptr);  // no buffer: every write is dropped

@@ -7,6 +7,7 @@
 #include <functional>
 #include <iosfwd>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,11 @@ namespace tetlod::cli {
 /// -1 quiet, 0 normal, 1+ verbose. Set once by main after parsing.
 int verbosity();
 void set_verbosity(int level);
+/// --progress / --no-progress as given (nullopt: neither, the default applies).
+void set_progress(std::optional<bool> forced);
+/// Whether long steps draw progress on stderr: forced by --progress/--no-progress,
+/// else when stderr is a terminal and not -q (zstd's convention).
+bool show_progress();
 /// Where results go: stdout, or a sink that drops everything under -q; stderr
 /// when the command writes its output to standard output ("-").
 std::ostream& out();

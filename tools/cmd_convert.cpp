@@ -53,7 +53,7 @@ int run_convert(const ConvertArgs& a) {
     detail("read " + a.input + ": " + format_dims(v.dims) + " " + value_type_name(v.type) + " in " +
            format_seconds(sw.seconds()));
 
-    const bool bar = verbosity() >= 0 && ::isatty(STDERR_FILENO);
+    const bool bar = show_progress();
     const double n = double(v.dims.count());
     const std::size_t value_bytes = value_size(v.type);
     ContainerWriteOptions wo;

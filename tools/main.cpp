@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
     int verbose = 0;
     app.add_flag("-q,--quiet", quiet, "Print only errors");
     app.add_flag("-v,--verbose", verbose, "Print more detail (repeat for more)");
+    bool progress = false, no_progress = false;
+    app.add_flag("--progress", progress, "Show progress on stderr even when it is not a terminal");
+    app.add_flag("--no-progress", no_progress, "Never show progress (default: only on a terminal, not with -q)");
     bool force = false;
     app.add_flag("-f,--force", force, "Overwrite existing output files (never an input of the command)");
     app.footer(
@@ -95,6 +98,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     cli::set_verbosity(quiet ? -1 : verbose);
+    if (no_progress) cli::set_progress(false);
+    else if (progress) cli::set_progress(true);
 
     OutputPolicy policy;
     policy.force = force;

@@ -110,7 +110,7 @@ TEST_P(RoundTrip, SpecialFloatValuesAndExtremesBitExact) {
     // care: build the model from parts with any errors.
     Volume v = tlodtest::make_volume({12, 7, 9}, GetParam(), 5, /*specials=*/true);
     HtDomain d = HtDomain::for_dims(v.dims, false);
-    std::vector<float> e(std::size_t(v.count()), 1.5f);
+    ZeroedVector<float> e(std::size_t(v.count()), 1.5f);
     HtModel m = HtModel::from_parts(v, d, e);
     ContainerWriter w;
     encode_ht(m, metadata_for_volume(v), w);

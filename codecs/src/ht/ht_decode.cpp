@@ -42,11 +42,7 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
                 G.for_each_point(L.chunks[i].cycle, L.chunks[i].box, [&](int64_t x, int64_t y, int64_t z) {
                     errors[G.index(x, y, z)] = std::numeric_limits<float>::infinity();
                 });
-        try {
-            out.errors.assign(errors.begin(), errors.end());
-        } catch (const std::bad_alloc&) {
-            return fail(ErrorCode::TooLarge, r.name() + ": cannot allocate the decoded errors");
-        }
+        out.errors = std::move(errors);
     }
     restore_metadata(field, L.metadata);
     out.field = std::move(field);

@@ -144,7 +144,7 @@ uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F,
 }
 
 template <class T>
-std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, const std::vector<float>& e,
+std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std::span<const float> e,
                                              const HtChunk& c, int m) {
     std::vector<std::byte> out;
     if (c.diamonds == 0) return out;

@@ -16,11 +16,18 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
     std::vector<char> want(L.chunks.size(), 0), done(L.chunks.size(), 0);
     // Undecoded diamonds read as error 0 ("fine"): the refinement then stops
     // at them, and the check below finds every such stop and loads it.
-    ZeroedVector<float> errors;
-    auto allocated = allocate_decoded(r.name(), L, &errors);
+    // Field and errors live in zeroed storage that commits memory only where a
+    // chunk is decoded, shared with one model that reads them between passes:
+    // no pass copies or scans the grid.
+    auto errors = std::make_shared<ZeroedVector<float>>();
+    auto allocated = allocate_decoded(r.name(), L, errors.get());
     if (!allocated) return allocated.failure();
-    Volume field = std::move(*allocated);
-    restore_metadata(field, L.metadata);
+    auto field = std::make_shared<Volume>(std::move(*allocated));
+    restore_metadata(*field, L.metadata);
+    auto built = capture([&] { return HtModel::over_shared_parts(field, L.domain, errors, L.metadata.value_range); },
+                         r.name() + ": ");
+    if (!built) return built.failure();
+    const HtModel& model = *built;
     // Chunk of a grid point of B: cycle from the trailing zeros, brick from the coordinates.
     std::vector<std::size_t> first_of_cycle(std::size_t(G.k + 1), 0);
     for (std::size_t i = L.chunks.size(); i-- > 0;) first_of_cycle[std::size_t(L.chunks[i].cycle)] = i;
@@ -40,15 +47,10 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
     const int max_level = 3 * G.k;
     for (;;) {
         add_dependencies(L, want);
-        auto n = decode_chunks(r, L, want, done, field, &errors);
+        auto n = decode_chunks(r, L, want, done, *field, errors.get());
         if (!n) return n.failure();
         st.chunks_decoded += *n;
         ++st.passes;
-        auto built = capture(
-            [&] { return HtModel::from_parts(field, L.domain, std::vector<float>(errors.begin(), errors.end())); },
-            r.name() + ": ");
-        if (!built) return built.failure();
-        HtModel& model = *built;
         TetMesh mesh = model.extract(query, es);
         // The mesh is the true one iff every vertex and the diamond under every
         // non-finest tet (centred at its longest edge's midpoint, the one the

@@ -1,6 +1,8 @@
 #pragma once
 // Residual coding 1 (format 1.x): zigzag byte planes + zstd, per chunk.
 
+#include <span>
+
 #include "ht_chunk_geometry.hpp"
 
 namespace tetlod::ht_detail {
@@ -40,7 +42,7 @@ void decode_field_chunk(const Geometry& G, T* v, const HtChunk& c, const std::by
 }
 
 template <class T>
-std::vector<std::byte> encode_error_chunk(const Geometry& G, const T* v, const std::vector<float>& e,
+std::vector<std::byte> encode_error_chunk(const Geometry& G, const T* v, std::span<const float> e,
                                           const HtChunk& c, int m) {
     const std::size_t n = c.diamonds;
     std::vector<std::byte> raw(n * 2);

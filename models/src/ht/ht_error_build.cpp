@@ -316,7 +316,7 @@ public:
         return err;
     }
 
-    void run(std::vector<float>& out, double slack) {
+    void run(ZeroedVector<float>& out, double slack) {
         const auto& m = dom_.box_max;
         for (int level = 0; level < dom_.max_level(); ++level) {
             const int cls = level % 3;
@@ -389,8 +389,8 @@ private:
 
 }  // namespace
 
-std::vector<float> compute_diamond_errors(const Volume& field, const HtDomain& domain) {
-    std::vector<float> errors(static_cast<std::size_t>(field.count()), 0.0f);
+ZeroedVector<float> compute_diamond_errors(const Volume& field, const HtDomain& domain) {
+    ZeroedVector<float> errors(static_cast<std::size_t>(field.count()));  // zeros, not walked
     dispatch_value_type(field.type, [&](auto tag) {
         using T = decltype(tag);
         if constexpr (std::is_integral_v<T>) {

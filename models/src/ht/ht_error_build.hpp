@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/core/zeroed_allocator.hpp"
 
 namespace tetlod::ht {
 
@@ -11,6 +12,6 @@ namespace tetlod::ht {
 /// max |f(p) - L_T(p)| over the grid points p of the closed tet. +inf when one of
 /// its tets crosses the data box's boundary (it must always split); 0 at cube
 /// corners. Rounded up to float so a stored error never understates the true one.
-std::vector<float> compute_diamond_errors(const Volume& field, const HtDomain& domain);
+ZeroedVector<float> compute_diamond_errors(const Volume& field, const HtDomain& domain);
 
 }  // namespace tetlod::ht

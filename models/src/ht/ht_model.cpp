@@ -78,29 +78,38 @@ HtModel HtModel::build(Volume volume, const HtBuildOptions& options) {
     require_finite(volume);
     HtModel m;
     m.domain_ = HtDomain::for_dims(volume.dims, options.pad);
-    if (options.pad && !(volume.dims == m.domain_.dims()))
-        m.field_ = pad_to_cube(volume, m.domain_.L);
-    else
-        m.field_ = std::move(volume);
-    m.range_ = m.field_.range();
-    m.errors_ = ht::compute_diamond_errors(m.field_, m.domain_);
+    auto field = std::make_shared<Volume>(options.pad && !(volume.dims == m.domain_.dims())
+                                              ? pad_to_cube(volume, m.domain_.L)
+                                              : std::move(volume));
+    m.range_ = field->range();
+    m.errors_ = std::make_shared<const ZeroedVector<float>>(ht::compute_diamond_errors(*field, m.domain_));
+    m.field_ = std::move(field);
     return m;
 }
 
-HtModel HtModel::from_parts(Volume field, const HtDomain& domain, std::vector<float> errors) {
-    if (!(field.dims == domain.dims()))
+HtModel HtModel::from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors,
+                            std::optional<std::array<double, 2>> range) {
+    const std::array<double, 2> r = range ? *range : field.range();
+    return over_shared_parts(std::make_shared<const Volume>(std::move(field)), domain,
+                             std::make_shared<const ZeroedVector<float>>(std::move(errors)), r);
+}
+
+HtModel HtModel::over_shared_parts(std::shared_ptr<const Volume> field, const HtDomain& domain,
+                                   std::shared_ptr<const ZeroedVector<float>> errors,
+                                   std::array<double, 2> range) {
+    if (!field || !errors) throw Error(ErrorCode::InvalidArgument, "HT model: missing field or errors");
+    if (!(field->dims == domain.dims()))
         throw Error(ErrorCode::CorruptData, "HT field dims do not match the HT domain");
-    if (errors.size() != static_cast<std::size_t>(field.count()))
+    if (errors->size() != static_cast<std::size_t>(field->count()))
         throw Error(ErrorCode::CorruptData, "HT error array size does not match the HT domain");
-    HtDomain expect = HtDomain::for_dims(domain.padded ? domain.source_dims : field.dims,
-                                         domain.padded);
+    HtDomain expect = HtDomain::for_dims(domain.padded ? domain.source_dims : field->dims, domain.padded);
     if (expect.k != domain.k || expect.box_max != domain.box_max)
         throw Error(ErrorCode::CorruptData, "inconsistent HT domain");
     HtModel m;
     m.domain_ = domain;
     m.field_ = std::move(field);
     m.errors_ = std::move(errors);
-    m.range_ = m.field_.range();
+    m.range_ = range;
     return m;
 }
 

@@ -62,7 +62,8 @@ public:
           X_(model.field().dims.x),
           XY_(model.field().dims.x * model.field().dims.y),
           n_(model.field().count()) {
-        split_.assign(static_cast<std::size_t>((n_ + 63) / 64), 0);
+        // Fresh zeroed storage: only the words of split diamonds get committed.
+        split_.resize(static_cast<std::size_t>((n_ + 63) / 64));
         vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
         eps_in_ = bounds_.in;
         eps_out_ = bounds_.out;
@@ -376,14 +377,14 @@ private:
 
     const HtDomain& dom_;
     const Volume& field_;
-    const std::vector<float>& err_;
+    const std::span<const float> err_;
     const LodQuery& q_;
     const detail::QueryBounds bounds_;  // after q_: initialised from it
     const int64_t X_, XY_, n_;
     double eps_in_ = 0, eps_out_ = 0, eps_min_ = 0, eps_max_ = 0;
     bool has_region_ = false;
 
-    std::vector<uint64_t> split_;
+    ZeroedVector<uint64_t> split_;
     std::unordered_set<uint64_t> outside_split_;
     std::unique_ptr<uint32_t[]> vertex_id_;  // valid only at vertices (split centres, corners)
     std::vector<Pt> pending_;  // diamonds to force

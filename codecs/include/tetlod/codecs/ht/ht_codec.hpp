@@ -78,7 +78,7 @@ struct HtDecoded {
     /// On B (padded when layout.domain.padded). Points not decoded are 0.
     Volume field;
     /// Per grid point of B; points not decoded hold +inf, cube corners 0.
-    std::vector<float> errors;
+    ZeroedVector<float> errors;
     uint64_t chunks_decoded = 0;
 };
 /// Decodes (part of) the HT. Safe on untrusted input: every section is checked

@@ -13,11 +13,14 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <span>
 #include <vector>
 
 #include "tetlod/models/lod_query.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/zeroed_allocator.hpp"
 
 namespace tetlod {
 
@@ -71,16 +74,25 @@ public:
 
     /// Reassembles a model from stored parts (container decoders). `errors` has
     /// one entry per grid point of domain.dims(); entries at points that are not
-    /// diamond centres are ignored. Throws tetlod::Error on inconsistent sizes.
-    static HtModel from_parts(Volume field, const HtDomain& domain, std::vector<float> errors);
+    /// diamond centres are ignored. `range`: the field's value range when known
+    /// (a container stores it), else computed by a scan of the field. Throws
+    /// tetlod::Error on inconsistent sizes.
+    static HtModel from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors,
+                              std::optional<std::array<double, 2>> range = std::nullopt);
+    /// A model over storage it shares with its maker, without copying it: the
+    /// lazy container reader decodes further chunks into that storage between
+    /// queries (never during one). Same checks as from_parts; `range` is given.
+    static HtModel over_shared_parts(std::shared_ptr<const Volume> field, const HtDomain& domain,
+                                     std::shared_ptr<const ZeroedVector<float>> errors,
+                                     std::array<double, 2> range);
 
     const HtDomain& domain() const { return domain_; }
     /// The field on B (padded when domain().padded).
-    const Volume& field() const { return field_; }
+    const Volume& field() const { return *field_; }
     /// Per-diamond error, indexed like the field (x fastest). +inf marks diamonds
     /// that must always split because one of their tets crosses the far faces of B;
     /// 0 at the cube corners (not diamonds).
-    const std::vector<float>& diamond_errors() const { return errors_; }
+    std::span<const float> diamond_errors() const { return {errors_->data(), errors_->size()}; }
 
     /// Selective refinement: the coarsest conforming mesh in which every tet
     /// satisfies its bound (unique, see docs/ht.md). Covers exactly B.
@@ -91,8 +103,9 @@ public:
 
 private:
     HtDomain domain_;
-    Volume field_;
-    std::vector<float> errors_;
+    // Shared, immutable while the model is used: copies of a model share them.
+    std::shared_ptr<const Volume> field_;
+    std::shared_ptr<const ZeroedVector<float>> errors_;
     std::array<double, 2> range_{0, 0};
 };
 
