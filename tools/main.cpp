@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
     int verbose = 0;
     app.add_flag("-q,--quiet", quiet, "Print only errors");
     app.add_flag("-v,--verbose", verbose, "Print more detail (repeat for more)");
+    int threads = 0;
+    app.add_option("-T,--threads", threads, "Use at most N threads (0: all cores); results are the same for any N")
+        ->check(CLI::NonNegativeNumber);
     bool progress = false, no_progress = false;
     app.add_flag("--progress", progress, "Show progress on stderr even when it is not a terminal");
     app.add_flag("--no-progress", no_progress, "Never show progress (default: only on a terminal, not with -q)");
@@ -69,7 +72,11 @@ int main(int argc, char** argv) {
     // CLI11 reports a mistyped command as "A subcommand is required": name it instead.
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];
-        if (arg.empty() || arg[0] == '-') continue;  // global options take no values
+        if (arg == "-T" || arg == "--threads") {  // the one global option with a value
+            ++i;
+            continue;
+        }
+        if (arg.empty() || arg[0] == '-') continue;
         bool known = false;
         std::string names;
         for (const auto& c : commands) {
@@ -101,6 +108,7 @@ int main(int argc, char** argv) {
     if (no_progress) cli::set_progress(false);
     else if (progress) cli::set_progress(true);
 
+    const ThreadLimit thread_limit(threads);
     OutputPolicy policy;
     policy.force = force;
     policy.force_hint = "use -f/--force to overwrite it";

@@ -1,5 +1,7 @@
 // A volume -> a .tlod container holding its HT, its MT or both, with
 // provenance metadata (see container.hpp).
+#include <cstdlib>
+#include <charconv>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -16,8 +18,21 @@ namespace tetlod {
 
 namespace {
 
-std::string utc_now() {
-    std::time_t t = std::time(nullptr);
+// The creation time: given, else SOURCE_DATE_EPOCH, else now.
+std::time_t creation_time(const std::optional<int64_t>& given) {
+    if (given) return std::time_t(*given);
+    const char* env = std::getenv("SOURCE_DATE_EPOCH");
+    if (!env) return std::time(nullptr);
+    const std::string text = env;
+    int64_t v = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || v < 0 || v > 253402300799)
+        throw Error(ErrorCode::InvalidArgument,
+                    "SOURCE_DATE_EPOCH='" + text + "': expected seconds since 1970-01-01 (a decimal integer)");
+    return std::time_t(v);
+}
+
+std::string utc_time(std::time_t t) {
     std::tm tm{};
     gmtime_r(&t, &tm);
     char b[32];
@@ -38,7 +53,7 @@ tlod::Metadata provenance_metadata(const Volume& v, const ContainerWriteOptions&
     }
     meta.format_keys[tlod::kKeyConverter] = o.converter;
     meta.format_keys[tlod::kKeyToolVersion] = TETLOD_VERSION_STRING;
-    meta.format_keys[tlod::kKeyCreated] = utc_now();
+    meta.format_keys[tlod::kKeyCreated] = utc_time(creation_time(o.created));
     return meta;
 }
 

@@ -40,6 +40,11 @@ struct ContainerWriteOptions {
     /// when `source_path` names a readable file), the converter and the time.
     std::string source_path;
     std::string converter = "tetlod";
+    /// Creation time recorded (seconds since the Unix epoch). Unset: the
+    /// environment's SOURCE_DATE_EPOCH when set (the reproducible-builds
+    /// convention: the same input and options then give the same bytes; a value
+    /// that is not a non-negative decimal integer is InvalidArgument), else now.
+    std::optional<int64_t> created;
     /// Called as (stage, done, total) while building and encoding: "build MT",
     /// "built MT", "build HT", "built HT", "encoded HT" (done = total = 0), and
     /// "encode HT" after each chunk (done of total chunks).

@@ -10,6 +10,7 @@
 
 // Versions: library and container format.
 #include "tetlod/version.hpp"
+#include "tetlod/threads.hpp"
 
 // Vocabulary: volumes, meshes, errors, safe output files.
 #include "tetlod/core/atomic_file.hpp"
