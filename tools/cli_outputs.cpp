@@ -62,6 +62,9 @@ void precheck_output(const OutputPolicy& policy, const std::string& output) {
         // Adding a dataset to an existing file destroys nothing; the writer asks
         // for --force only when the dataset itself exists.
         policy.check_not_input(file, dataset.empty() ? "/volume" : dataset);
+        // An existing dataset needs -f, a group is never replaced: say so before
+        // the work rather than after it (main installed `policy` for the run).
+        check_volume_output(output);
         return;
     }
     policy.check_output(output);

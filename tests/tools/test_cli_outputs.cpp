@@ -168,6 +168,17 @@ TEST(CliOutputs, Hdf5OutputAddsOrReplacesOneDatasetOnly) {
            "f['y'].shape)\"");
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.out.find("[0, 1, 2, 3, 4] file attr (9, 9, 9) (9, 9, 9) (9, 9, 9)"), std::string::npos) << r.out;
+    // Refused before any work: an existing dataset without -f is reported even
+    // when the input does not exist (the input would fail later, exit 3), and a
+    // group at the path is never replaced, even with -f.
+    r = run_no_force("decode '" + d + "/missing.tlod' '" + h5 + ":/x'");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("-f"), std::string::npos) << r.err;
+    r = run("decode '" + d + "/missing.tlod' '" + h5 + ":/keep'");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("not a dataset"), std::string::npos) << r.err;
+    r = run("decode '" + d + "/missing.tlod' '" + h5 + ":/new'");
+    EXPECT_EQ(r.code, 3) << r.err;  // a new dataset: the missing input is the problem
 }
 
 TEST(CliOutputs, ExitCodesOfTheIssue) {

@@ -502,6 +502,38 @@ std::vector<std::string> hdf5_unstorable_keys(const Volume& vol) {
     return out;
 }
 
+void check_hdf5_output(const std::string& file, const std::string& dataset_in) {
+    const std::string dataset = normalize_dataset(dataset_in);
+    const std::string what = name_of(file, dataset);
+    OutputPolicy* policy = active_output_policy();
+    if (policy) policy->check_not_input(file, dataset);
+    std::error_code ec;
+    if (!std::filesystem::exists(file, ec)) return;  // a new file: nothing to lose
+    silence_hdf5();
+#if H5_VERSION_GE(1, 12, 0)
+    const bool hdf5 = H5Fis_accessible(file.c_str(), H5P_DEFAULT) > 0;
+#else
+    const bool hdf5 = H5Fis_hdf5(file.c_str()) > 0;
+#endif
+    if (!hdf5) {
+        if (policy) policy->check_replace(file, true);  // the whole file would be replaced
+        return;
+    }
+    Hid f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) return;  // the writer reports why it cannot open it
+    std::size_t pos = 0;
+    while (pos < dataset.size()) {  // every link on the path must exist (H5Lexists needs its parents)
+        const std::size_t next = dataset.find('/', pos + 1);
+        if (H5Lexists(f.get(), dataset.substr(0, next).c_str(), H5P_DEFAULT) <= 0) return;
+        if (next == std::string::npos) break;
+        pos = next;
+    }
+    Hid obj(H5Oopen(f.get(), dataset.c_str(), H5P_DEFAULT), H5Oclose);
+    if (!obj.valid() || H5Iget_type(obj.get()) != H5I_DATASET)
+        throw Error(ErrorCode::InvalidArgument, what + " exists and is not a dataset: refusing to replace it");
+    if (policy) policy->check_replace(file + ":" + dataset, true);
+}
+
 void write_hdf5(const Volume& vol, const std::string& file, const std::string& dataset_in,
                 const Hdf5WriteOptions& options) {
     const std::string dataset = normalize_dataset(dataset_in);

@@ -111,4 +111,9 @@ std::vector<std::string> volume_companion_files(const std::string& path, const s
     return loc.format->companion_files(loc);
 }
 
+void check_volume_output(const std::string& path, const std::string& format) {
+    const VolumeLocation loc = locate_volume(path, format);
+    if (loc.format->built && loc.format->check_output) loc.format->check_output(loc);
+}
+
 }  // namespace tetlod

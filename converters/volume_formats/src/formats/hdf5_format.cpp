@@ -22,6 +22,7 @@ VolumeFormat hdf5_volume_format() {
         write_hdf5(v, l.file, l.dataset.empty() ? "/volume" : l.dataset);
     };
     f.lost_metadata = hdf5_unstorable_keys;
+    f.check_output = [](const VolumeLocation& l) { check_hdf5_output(l.file, l.dataset.empty() ? "/volume" : l.dataset); };
 #else
     f.built = false;
 #endif

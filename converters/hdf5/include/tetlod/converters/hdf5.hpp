@@ -53,6 +53,12 @@ struct Hdf5WriteOptions {
 void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
                 const Hdf5WriteOptions& options = {});
 
+/// What write_hdf5(volume, file, dataset) would refuse under the installed
+/// OutputPolicy, checked before any work: an existing non-HDF5 `file` or an
+/// existing `dataset` without force (InvalidArgument via the policy), a group or
+/// other object at `dataset` (InvalidArgument). Nothing is written.
+void check_hdf5_output(const std::string& file, const std::string& dataset);
+
 /// The metadata keys write_hdf5 leaves out, in key order: no attribute name
 /// ("", "."), or the name of an attribute written from the Volume's own fields.
 std::vector<std::string> hdf5_unstorable_keys(const Volume& volume);

@@ -50,6 +50,10 @@ struct VolumeFormat {
     std::function<std::vector<std::string>(const Volume&)> lost_metadata;
     /// Optional: other files `write` creates beside `file` (a detached header's data file).
     std::function<std::vector<std::string>(const VolumeLocation&)> companion_files;
+    /// Optional: refuses, before any work, what `write` would refuse at the end
+    /// under the installed OutputPolicy (HDF5: an existing dataset without
+    /// force, a group at the dataset's path). Throws like `write` would.
+    std::function<void(const VolumeLocation&)> check_output;
     /// Optional: true when a file whose extension no format knows is still this
     /// format (raw: when its dims and type are known from the options or the name).
     std::function<bool(const std::string& path, const VolumeReadOptions&)> claims_unknown_name;

@@ -44,4 +44,8 @@ std::vector<std::string> metadata_keys_lost(const Volume& volume, const std::str
 /// data file of a detached header); empty for most formats or an unknown name.
 std::vector<std::string> volume_companion_files(const std::string& path, const std::string& format = "");
 
+/// The format's check_output for `path`, if it has one: refuses up front an
+/// output write_volume would refuse after the work (see VolumeFormat).
+void check_volume_output(const std::string& path, const std::string& format = "");
+
 }  // namespace tetlod
