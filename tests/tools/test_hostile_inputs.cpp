@@ -337,7 +337,13 @@ TEST(HostileInputs, DataFilesOutsideTheHeaderFolderNeedTheFlag) {
     struct Case {
         std::string tag, header, name;
     };
+    // A link inside the folder that points outside it, and a folder reached
+    // through a link (fine: both sides are resolved).
+    fs::create_symlink(fs::absolute(dir + "/elsewhere/secret.raw"), dir + "/hdr/link.raw");
+    fs::create_directory_symlink(fs::absolute(dir + "/hdr"), dir + "/hdr_link");
     const std::vector<Case> cases = {
+        {"nrrd_symlink", "hdr/e.nhdr", "link.raw"},
+        {"mhd_symlink", "hdr/f.mhd", "link.raw"},
         {"nrrd_dotdot", "hdr/a.nhdr", "../elsewhere/secret.raw"},
         {"nrrd_absolute", "hdr/b.nhdr", abs_secret},
         {"mhd_dotdot", "hdr/c.mhd", "../elsewhere/secret.raw"},
@@ -355,6 +361,13 @@ TEST(HostileInputs, DataFilesOutsideTheHeaderFolderNeedTheFlag) {
         const auto ok = tetlod_cli_test::run("convert '" + hp + "' '" + out + "' --allow-external-data");
         EXPECT_EQ(ok.code, 0) << ok.err;
         EXPECT_TRUE(fs::exists(out));
+    }
+    // Through a linked folder, a data file really inside it is read without the flag.
+    {
+        write_text(dir + "/hdr/in.nhdr",
+                   "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 4 4\nencoding: raw\ndata file: inside.raw\n");
+        const auto linked = tetlod_cli_test::run("convert '" + dir + "/hdr_link/in.nhdr' '" + dir + "/linked.tlod'");
+        EXPECT_EQ(linked.code, 0) << linked.err;
     }
     // A header given by a bare relative name (no folder part) reads its data file beside it.
     {

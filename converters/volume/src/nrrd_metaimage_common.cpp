@@ -390,6 +390,18 @@ std::string resolve_data_file(const std::string& header_path, const std::string&
         throw Error(ErrorCode::UnsupportedFeature,
                     what + ": the header names the data file '" + name + "', which is outside the header's folder; "
                            "pass --allow-external-data to read it");
+    // The same after symbolic links: a link inside the folder may point anywhere
+    // (/etc/shadow). Both sides resolved, so a folder reached through a link is fine.
+    std::error_code real_ec;
+    const fs::path real_dir = fs::canonical(dir, real_ec);
+    const fs::path real_file = real_ec ? fs::path() : fs::weakly_canonical(file, real_ec);
+    if (!real_ec) {
+        const fs::path real_rel = real_file.lexically_relative(real_dir);
+        if (real_rel.empty() || *real_rel.begin() == ".." || real_rel.is_absolute())
+            throw Error(ErrorCode::UnsupportedFeature,
+                        what + ": the data file '" + name + "' is a symbolic link to '" + real_file.string() +
+                            "', outside the header's folder; pass --allow-external-data to read it");
+    }
     return require_regular();
 }
 
