@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libgtest-dev libbenchmark-dev
-  libtbb-dev zlib1g-dev libzstd-dev zstd
+  libtbb-dev zlib1g-dev libzstd-dev zstd liblz4-dev liblzma-dev
   libcli11-dev nlohmann-json3-dev libxxhash-dev
   libopenvdb-dev libboost-iostreams-dev
   libhdf5-dev hdf5-tools

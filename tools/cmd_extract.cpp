@@ -18,8 +18,17 @@ struct ExtractArgs {
     std::string input, output, model, format;  // empty: not given
     LodFlags lod;
     bool pad = false, no_compress = false;
+    std::string compress = "zlib";
+    int compress_level = 0;
     VolumeFlags volume;
 };
+
+MeshWriteOptions mesh_write_options(const ExtractArgs& a) {
+    MeshWriteOptions o;
+    o.compression = a.no_compress ? MeshCompression::None : *parse_mesh_compression(a.compress);
+    o.compression_level = a.compress_level;
+    return o;
+}
 
 // A container: the HT read lazily (only the chunks the query examines), or its MT.
 int run_extract_container(const ExtractArgs& a, ModelKind model) {
@@ -33,7 +42,7 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
                                })
             .take();
     MeshWriteOptions wo;
-    wo.compress = !a.no_compress;
+    wo = mesh_write_options(a);
     write_tet_mesh(x.mesh, a.output, a.format, wo);
     auto& o = out();
     if (model == ModelKind::Mt) {
@@ -93,7 +102,7 @@ int run_extract(const ExtractArgs& a) {
                  std::to_string(stats.visited_tets) + " tets visited";
 
     MeshWriteOptions write_options;
-    write_options.compress = !a.no_compress;
+    write_options = mesh_write_options(a);
     Stopwatch write_clock;
     write_tet_mesh(mesh, a.output, a.format, write_options);
     const double write_seconds = write_clock.seconds();
@@ -139,7 +148,16 @@ const CommandRegistration registration{Command{
         sub.add_option("--format", a->format, "Mesh format (default: from the extension)")
             ->group(model)
             ->check(CLI::IsMember(mesh_format_names()));
-        sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed")
+        sub.add_option("--compress", a->compress,
+                       "Block compressor of .vtu arrays: zlib (read everywhere), lz4 (fastest; VTK/ParaView only), "
+                       "lzma (smallest) or none")
+            ->group(model)
+            ->capture_default_str()
+            ->check(CLI::IsMember({"lz4", "zlib", "lzma", "none"}));
+        sub.add_option("--compress-level", a->compress_level, "Compressor level 1 (fastest) .. 9 (smallest); 0: its default")
+            ->group(model)
+            ->check(CLI::Range(0, 9));
+        sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed (= --compress none)")
             ->group(model);
         sub.footer(
             "Examples:\n"

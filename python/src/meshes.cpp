@@ -7,6 +7,7 @@
 #include "common.hpp"
 #include "tetlod/converters/features.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
+#include "tetlod/core/error.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/triangle_mesh.hpp"
 #if TETLOD_HAVE_OPENMESH
@@ -18,11 +19,20 @@ namespace py = pybind11;
 namespace tetlod::python {
 namespace {
 
+// compress: True (the default compressor, zlib), False (none), or a name:
+// "lz4", "zlib", "lzma", "none".
 void write_mesh(const TetMesh& mesh, const std::string& path, const std::string& format,
-                bool compress) {
-    py::gil_scoped_release release;
+                const py::object& compress) {
     MeshWriteOptions options;
-    options.compress = compress;
+    if (py::isinstance<py::bool_>(compress)) {
+        if (!compress.cast<bool>()) options.compression = MeshCompression::None;
+    } else {
+        const std::string name = py::str(compress);
+        const auto c = parse_mesh_compression(name);
+        if (!c) throw Error(ErrorCode::InvalidArgument, "compress='" + name + "': expected lz4, zlib, lzma or none");
+        options.compression = *c;
+    }
+    py::gil_scoped_release release;
     write_tet_mesh(mesh, path, format, options);
 }
 
@@ -94,7 +104,8 @@ void bind_mesh(py::module_& m) {
         .def_property_readonly("tet_count", &TetMesh::tet_count)
         .def_property_readonly("vertex_count", &TetMesh::vertex_count)
         .def("write", &write_mesh, py::arg("path"), py::arg("format") = "", py::arg("compress") = true,
-             "Writes the mesh (.vtu, .vtk, .msh, .mesh; format overrides the extension).")
+             "Writes the mesh (.vtu, .vtk, .msh, .mesh; format overrides the extension); compress: "
+             "True (zlib), False, or 'zlib', 'lz4', 'lzma', 'none' (.vtu).")
         .def("__repr__", [](const TetMesh& m) {
             return "<tetlod.Mesh " + std::to_string(m.tet_count()) + " tets, " +
                    std::to_string(m.vertex_count()) + " vertices>";

@@ -1,8 +1,10 @@
 // VTK writers: each file is decoded again here by a small independent reader
-// (XML attributes + appended binary, zlib blocks included; legacy big-endian
+// (XML attributes + appended binary, zlib, LZ4 and LZMA blocks included; legacy big-endian
 // sections) and compared with the mesh, and, when python3-vtk9 is installed,
 // read by VTK itself.
 #include <gtest/gtest.h>
+#include <lz4.h>
+#include <lzma.h>
 #include <zlib.h>
 
 #include <bit>
@@ -109,6 +111,28 @@ Vtu read_vtu(const std::string& path) {
     vtu.points = std::stoull(piece.at("NumberOfPoints"));
     vtu.cells = std::stoull(piece.at("NumberOfCells"));
     const bool compressed = vtu.file_attrs.count("compressor") > 0;
+    const std::string compressor = compressed ? vtu.file_attrs.at("compressor") : "";
+    // One block back to `usize` bytes with the library of the named compressor.
+    auto inflate_block = [&](const char* in, std::size_t csize, std::byte* out, std::size_t usize) -> std::size_t {
+        if (compressor == "vtkZLibDataCompressor") {
+            uLongf n = static_cast<uLongf>(usize);
+            return uncompress(reinterpret_cast<Bytef*>(out), &n, reinterpret_cast<const Bytef*>(in), csize) == Z_OK
+                       ? n
+                       : 0;
+        }
+        if (compressor == "vtkLZ4DataCompressor")
+            return std::size_t(std::max(0, LZ4_decompress_safe(in, reinterpret_cast<char*>(out), int(csize), int(usize))));
+        if (compressor == "vtkLZMADataCompressor") {
+            uint64_t limit = UINT64_MAX;
+            std::size_t in_pos = 0, out_pos = 0;
+            return lzma_stream_buffer_decode(&limit, 0, nullptr, reinterpret_cast<const uint8_t*>(in), &in_pos, csize,
+                                             reinterpret_cast<uint8_t*>(out), &out_pos, usize) == LZMA_OK
+                       ? out_pos
+                       : 0;
+        }
+        ADD_FAILURE() << "unknown compressor " << compressor;
+        return 0;
+    };
     const auto appended = s.find("<AppendedData");
     const auto base = s.find('_', appended) + 1;
 
@@ -132,14 +156,10 @@ Vtu read_vtu(const std::string& path) {
             std::size_t data = pos + 24 + 8 * nblocks;
             for (uint64_t b = 0; b < nblocks; ++b) {
                 const uint64_t csize = u64_at(s, pos + 24 + 8 * b);
-                uLongf usize = (b + 1 == nblocks && last != 0) ? last : bs;
-                const uLongf expected = usize;
+                const std::size_t usize = (b + 1 == nblocks && last != 0) ? last : bs;
                 const std::size_t at = arr.bytes.size();
                 arr.bytes.resize(at + usize);
-                EXPECT_EQ(uncompress(reinterpret_cast<Bytef*>(arr.bytes.data() + at), &usize,
-                                     reinterpret_cast<const Bytef*>(s.data() + data), csize),
-                          Z_OK);
-                EXPECT_EQ(usize, expected);
+                EXPECT_EQ(inflate_block(s.data() + data, csize, arr.bytes.data() + at, usize), usize);
                 data += csize;
             }
         }
@@ -164,15 +184,36 @@ void expect_vtu_matches(const Vtu& v, const TetMesh& m) {
             ASSERT_EQ(xyz[3 * i + a],
                       m.geometry.origin[a] + m.geometry.spacing[a] * m.points[i][a]);
 
-    EXPECT_EQ(v.arrays.at(m.field_name).type, "Float64");
-    EXPECT_EQ(v.arrays.at(m.field_name).as<double>(), m.values);
+    // The values in the mesh's own sample type.
+    const auto& field = v.arrays.at(m.field_name);
+    std::vector<double> values;
+    if (m.value_type == ValueType::F64) {
+        EXPECT_EQ(field.type, "Float64");
+        values = field.as<double>();
+    } else if (m.value_type == ValueType::U8) {
+        EXPECT_EQ(field.type, "UInt8");
+        for (uint8_t x : field.as<uint8_t>()) values.push_back(x);
+    } else if (m.value_type == ValueType::I16) {
+        EXPECT_EQ(field.type, "Int16");
+        for (int16_t x : field.as<int16_t>()) values.push_back(x);
+    } else if (m.value_type == ValueType::F32) {
+        EXPECT_EQ(field.type, "Float32");
+        for (float x : field.as<float>()) values.push_back(x);
+    } else {
+        ADD_FAILURE() << "test reader: add this value type";
+    }
+    EXPECT_EQ(values, m.values);
     EXPECT_EQ(v.arrays.at("level").type, "UInt8");
     EXPECT_EQ(v.arrays.at("level").as<uint8_t>(), m.level);
     EXPECT_EQ(v.arrays.at("error").type, "Float32");
     EXPECT_EQ(v.arrays.at("error").as<float>(), m.error);
 
-    const auto conn = v.arrays.at("connectivity").as<int64_t>();
-    const auto offsets = v.arrays.at("offsets").as<int64_t>();
+    // Int32 ids while they fit (every mesh here).
+    EXPECT_EQ(v.arrays.at("connectivity").type, "Int32");
+    EXPECT_EQ(v.arrays.at("offsets").type, "Int32");
+    std::vector<int64_t> conn, offsets;
+    for (int32_t x : v.arrays.at("connectivity").as<int32_t>()) conn.push_back(x);
+    for (int32_t x : v.arrays.at("offsets").as<int32_t>()) offsets.push_back(x);
     const auto types = v.arrays.at("types").as<uint8_t>();
     ASSERT_EQ(conn.size(), 4 * m.tets.size());
     ASSERT_EQ(offsets.size(), m.tets.size());
@@ -229,18 +270,61 @@ ErrorCode error_of(F&& f, std::string* message = nullptr) {
 
 }  // namespace
 
+// The mesh with integer values of `type` (as a volume of that type gives).
+TetMesh typed_mesh(int n, ValueType type) {
+    TetMesh m = grid_mesh(n);
+    m.value_type = type;
+    for (std::size_t i = 0; i < m.values.size(); ++i)
+        m.values[i] = type == ValueType::U8 ? double(i % 251) : double(int(i % 4001) - 2000);
+    return m;
+}
+
 TEST(VtuWriter, CompressedRoundTrip) {
     const TetMesh m = grid_mesh(4);
     write_vtu(m, tmp("c.vtu"));
     const Vtu v = read_vtu(tmp("c.vtu"));
-    EXPECT_EQ(v.file_attrs.at("compressor"), "vtkZLibDataCompressor");
+    EXPECT_EQ(v.file_attrs.at("compressor"), "vtkZLibDataCompressor");  // the default
     expect_vtu_matches(v, m);
+    const std::pair<MeshCompression, const char*> compressors[] = {
+        {MeshCompression::Zlib, "vtkZLibDataCompressor"},
+        {MeshCompression::Lz4, "vtkLZ4DataCompressor"},
+        {MeshCompression::Lzma, "vtkLZMADataCompressor"}};
+    for (const auto& [c, attr] : compressors)
+        for (int level : {0, 1, 9}) {
+            SCOPED_TRACE(std::string(attr) + " level " + std::to_string(level));
+            VtuWriteOptions o;
+            o.compression = c;
+            o.compression_level = level;
+            o.block_size = 1000;  // many blocks, compressed in parallel
+            write_vtu(m, tmp("c.vtu"), o);
+            const Vtu vc = read_vtu(tmp("c.vtu"));
+            EXPECT_EQ(vc.file_attrs.at("compressor"), attr);
+            expect_vtu_matches(vc, m);
+        }
+}
+
+TEST(VtuWriter, ValuesKeepTheirType) {
+    for (ValueType t : {ValueType::U8, ValueType::I16}) {
+        SCOPED_TRACE(value_type_name(t));
+        const TetMesh m = typed_mesh(3, t);
+        write_vtu(m, tmp("typed.vtu"));
+        expect_vtu_matches(read_vtu(tmp("typed.vtu")), m);
+    }
+}
+
+TEST(VtuWriter, NamesOfTheCompressors) {
+    for (MeshCompression c : {MeshCompression::None, MeshCompression::Zlib, MeshCompression::Lz4, MeshCompression::Lzma})
+        EXPECT_EQ(parse_mesh_compression(mesh_compression_name(c)), c);
+    EXPECT_FALSE(parse_mesh_compression("gzip").has_value());
+    VtuWriteOptions o;
+    o.compression_level = 10;
+    EXPECT_EQ(error_of([&] { write_vtu(grid_mesh(1), tmp("lvl.vtu"), o); }), ErrorCode::InvalidArgument);
 }
 
 TEST(VtuWriter, UncompressedRoundTrip) {
     const TetMesh m = grid_mesh(3);
     VtuWriteOptions o;
-    o.compress = false;
+    o.compression = MeshCompression::None;
     write_vtu(m, tmp("u.vtu"), o);
     const Vtu v = read_vtu(tmp("u.vtu"));
     EXPECT_EQ(v.file_attrs.count("compressor"), 0u);
@@ -313,6 +397,21 @@ TEST(VtkLegacyWriter, RoundTrip) {
     EXPECT_TRUE(r.at_end());
 }
 
+TEST(VtkLegacyWriter, ValuesKeepTheirType) {
+    const TetMesh m = typed_mesh(2, ValueType::I16);
+    write_vtk_legacy(m, tmp("typed.vtk"));
+    const std::string s = slurp(tmp("typed.vtk"));
+    const std::string head = "SCALARS density short 1\nLOOKUP_TABLE default\n";
+    const auto at = s.find(head);
+    ASSERT_NE(at, std::string::npos);
+    std::vector<double> got;
+    for (std::size_t i = 0; i < m.values.size(); ++i) {
+        const auto* b = reinterpret_cast<const unsigned char*>(s.data() + at + head.size() + 2 * i);
+        got.push_back(double(int16_t(uint16_t(b[0] << 8 | b[1]))));  // big-endian
+    }
+    EXPECT_EQ(got, m.values);
+}
+
 TEST(MeshWriters, RefuseInconsistentMeshesWithoutWriting) {
     TetMesh m = grid_mesh(1);
     m.tets.push_back({0, 1, 2, 99});
@@ -338,7 +437,7 @@ TEST(MeshWriters, DispatchByExtensionAndFormat) {
     write_tet_mesh(m, tmp("legacy.out"), "vtk");
     EXPECT_EQ(slurp(tmp("legacy.out")).rfind("# vtk DataFile", 0), 0u);
     MeshWriteOptions plain;
-    plain.compress = false;
+    plain.compression = MeshCompression::None;
     write_tet_mesh(m, tmp("plain.vtu"), "", plain);
     EXPECT_EQ(read_vtu(tmp("plain.vtu")).file_attrs.count("compressor"), 0u);
 
@@ -353,12 +452,24 @@ TEST(MeshWriters, DispatchByExtensionAndFormat) {
 TEST(MeshWriters, ReadBackByVtk) {
     if (std::system("/usr/bin/python3 -c 'import vtk' >/dev/null 2>&1") != 0)
         GTEST_SKIP() << "python3-vtk9 is not installed (/usr/bin/python3 -c 'import vtk' failed)";
-    const TetMesh m = grid_mesh(3);
-    write_vtu(m, tmp("vtk.vtu"));
-    write_vtk_legacy(m, tmp("vtk.vtk"));
+  for (ValueType type : {ValueType::F64, ValueType::U8}) {
+    SCOPED_TRACE(value_type_name(type));
+    const TetMesh m = type == ValueType::F64 ? grid_mesh(3) : typed_mesh(3, type);
+    // Every compressor VTK knows, and the legacy format.
+    std::vector<std::string> files;
+    for (MeshCompression c : {MeshCompression::None, MeshCompression::Zlib, MeshCompression::Lz4, MeshCompression::Lzma}) {
+        VtuWriteOptions o;
+        o.compression = c;
+        o.block_size = 4096;
+        files.push_back(tmp(std::string("vtk_") + mesh_compression_name(c) + ".vtu"));
+        write_vtu(m, files.back(), o);
+    }
+    files.push_back(tmp("vtk.vtk"));
+    write_vtk_legacy(m, files.back());
     const std::string out = tmp("vtk.txt");
-    const std::string cmd = std::string("/usr/bin/python3 ") + TETLOD_READ_VTK_PY + " " +
-                            tmp("vtk.vtu") + " " + tmp("vtk.vtk") + " > " + out;
+    std::string cmd = std::string("/usr/bin/python3 ") + TETLOD_READ_VTK_PY;
+    for (const auto& f : files) cmd += " " + f;
+    cmd += " > " + out;
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
 
     double value_sum = 0;
@@ -369,7 +480,7 @@ TEST(MeshWriters, ReadBackByVtk) {
     for (float e : m.error) error_max = std::max(error_max, e);
 
     std::istringstream lines(slurp(out));
-    for (int f = 0; f < 2; ++f) {
+    for (std::size_t f = 0; f < files.size(); ++f) {
         std::string path;
         uint64_t points = 0, cells = 0, tetras = 0, positive = 0, levels = 0;
         double values = 0, errors = 0, xmin = 0, ymax = 0;
@@ -386,4 +497,5 @@ TEST(MeshWriters, ReadBackByVtk) {
         EXPECT_DOUBLE_EQ(xmin, -1.0);
         EXPECT_DOUBLE_EQ(ymax, 10.0 + 2.0 * 3);
     }
+  }
 }

@@ -47,6 +47,21 @@ std::string legacy_name(const std::string& s) {
     return r;
 }
 
+// Legacy type names of the sample types (VTK's legacy reader knows them all).
+const char* legacy_type_name(ValueType t) {
+    switch (t) {
+        case ValueType::U8: return "unsigned_char";
+        case ValueType::I8: return "char";
+        case ValueType::U16: return "unsigned_short";
+        case ValueType::I16: return "short";
+        case ValueType::U32: return "unsigned_int";
+        case ValueType::I32: return "int";
+        case ValueType::F32: return "float";
+        case ValueType::F64: return "double";
+    }
+    return "double";
+}
+
 }  // namespace
 
 void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
@@ -79,9 +94,13 @@ void write_vtk_legacy(const TetMesh& mesh, const std::string& path) {
     for (std::size_t i = 0; i < nt; ++i) buf.put(int32_t{10});  // VTK_TETRA
     buf.flush_to(out);
 
-    out.write("POINT_DATA " + std::to_string(np) + "\nSCALARS " + legacy_name(mesh.field_name) +
-              " double 1\nLOOKUP_TABLE default\n");
-    for (double v : mesh.values) buf.put(v);
+    // The values in the mesh's sample type (exact: they came from it).
+    out.write("POINT_DATA " + std::to_string(np) + "\nSCALARS " + legacy_name(mesh.field_name) + " " +
+              legacy_type_name(mesh.value_type) + " 1\nLOOKUP_TABLE default\n");
+    dispatch_value_type(mesh.value_type, [&](auto tag) {
+        using T = decltype(tag);
+        for (double v : mesh.values) buf.put(static_cast<T>(v));
+    });
     buf.flush_to(out);
 
     // Cell arrays go in one FIELD block: VTK's legacy reader loads only the first

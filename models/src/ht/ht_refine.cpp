@@ -76,6 +76,7 @@ public:
         mesh_.geometry.spacing = field_.spacing;
         mesh_.geometry.origin = field_.origin;
         mesh_.field_name = field_.field_name;
+        mesh_.value_type = field_.type;
         // Cube corners inside B are vertices of every mesh.
         for (int m = 0; m < 8; ++m) {
             Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};

@@ -236,6 +236,7 @@ struct MtRefiner {
         mesh.geometry.spacing = m.field_.spacing;
         mesh.geometry.origin = m.field_.origin;
         mesh.field_name = m.field_.field_name;
+        mesh.value_type = m.field_.type;
         std::vector<uint32_t> vid(n, kNil);
         // Vertices in grid order (deterministic and cache friendly).
         for (uint32_t p = 0; p < n; ++p)

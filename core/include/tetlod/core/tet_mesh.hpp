@@ -27,6 +27,10 @@ struct TetMesh {
     std::vector<std::array<int32_t, 3>> points;
     /// Field value at each vertex (exact: a sample of the input).
     std::vector<double> values;
+    /// The type of the samples `values` came from: every value is exactly
+    /// representable in it, so writers may store them in it (a u8 volume's
+    /// mesh keeps 1-byte values). F64 when unknown.
+    ValueType value_type = ValueType::F64;
     /// Vertex ids; every tet is positively oriented in index space:
     /// (p1-p0) x (p2-p0) . (p3-p0) > 0.
     std::vector<std::array<uint32_t, 4>> tets;

@@ -2,24 +2,30 @@
 // VTK writers for extracted tetrahedral meshes, readable by ParaView, VisIt and
 // the VTK library:
 //  - XML UnstructuredGrid (.vtu), binary appended data with UInt64 headers,
-//    optionally zlib-compressed the way vtkZLibDataCompressor does it;
+//    optionally compressed in blocks the way VTK's zlib, LZ4 and LZMA data
+//    compressors do it (blocks compressed in parallel; the bytes do not depend
+//    on the thread count); connectivity and offsets as Int32 when they fit;
 //  - legacy (.vtk) BINARY UNSTRUCTURED_GRID, big-endian as that format requires.
 // Both carry: points in world coordinates (mesh.geometry applied) as Float64,
-// the field as point data named mesh.field_name (Float64), and cell data
+// the field as point data named mesh.field_name (in mesh.value_type: a u8
+// volume gives UInt8 values; legacy .vtk: the same where it has the type,
+// else double), and cell data
 // "level" (UInt8) and "error" (Float32) when the mesh has them. Cells are VTK
 // tetrahedra (type 10) with the mesh's vertex order, positive in index space.
 #include <cstddef>
 #include <string>
 
+#include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 
 namespace tetlod {
 
 struct VtuWriteOptions {
-    /// zlib-compress every array (vtkZLibDataCompressor layout).
-    bool compress = true;
-    /// zlib level 1..9; 6 is zlib's own default trade-off.
-    int compression_level = 6;
+    /// Block compressor of every array; None stores them raw.
+    MeshCompression compression = MeshCompression::Zlib;
+    /// 1 (fastest) .. 9 (smallest); 0: the default (zlib 1: fast, see
+    /// MeshWriteOptions; LZ4 9, i.e. acceleration 1; LZMA 5, as VTK's writer).
+    int compression_level = 0;
     /// Uncompressed bytes per compressed block (VTK's default is 32 KiB).
     std::size_t block_size = 32768;
 };
