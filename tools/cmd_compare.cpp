@@ -147,16 +147,35 @@ std::string report_markdown(const CompareArgs& a, const Volume& v, const std::ve
 int run_compare(const CompareArgs& a) {
     StatsOptions opt;
     for (const auto& s : a.isovalues) opt.isovalues.push_back(parse_number(s, "--isovalue"));
-    const Volume v = load_volume(a.input, a.volume.options());
     std::vector<ModelStats> ms;
-    detail("building and measuring the HT");
-    ms.push_back(measure_model(build_model(ModelKind::Ht, v, ModelBuildOptions{false, true}), "HT", opt));
     std::string mt_note;
-    if (a.ht_only) {
-        mt_note = "left out (--ht-only).";
+    Volume v;
+    if (is_container_path(a.input)) {
+        // A container: its stored models, as a user of the file gets them.
+        const ContainerModels held = container_models(a.input);
+        if (!held.ht && held.mt)
+            throw Error(ErrorCode::InvalidArgument, "'" + a.input +
+                                                        "' holds no HT: the report compares the MT with the HT "
+                                                        "(convert with --model ht,mt)");
+        v = decode_container(a.input).take();
+        for (ModelKind kind : {ModelKind::Ht, ModelKind::Mt}) {
+            const bool has = kind == ModelKind::Ht ? held.ht : held.mt;
+            if (!has || (kind == ModelKind::Mt && a.ht_only)) continue;
+            detail(std::string("measuring the stored ") + model_kind_name(kind));
+            ms.push_back(measure_model(open_model(a.input, kind).take(), model_kind_name(kind), opt));
+        }
+        if (a.ht_only) mt_note = "left out (--ht-only).";
+        else if (!held.mt) mt_note = "not in the container (convert with --model ht,mt to store it).";
     } else {
-        detail("building and measuring the MT");
-        ms.push_back(measure_model(build_model(ModelKind::Mt, v, ModelBuildOptions{false, true}), "MT", opt));
+        v = load_volume(a.input, a.volume.options());
+        detail("building and measuring the HT");
+        ms.push_back(measure_model(build_model(ModelKind::Ht, v, ModelBuildOptions{false, true}), "HT", opt));
+        if (a.ht_only) {
+            mt_note = "left out (--ht-only).";
+        } else {
+            detail("building and measuring the MT");
+            ms.push_back(measure_model(build_model(ModelKind::Mt, v, ModelBuildOptions{false, true}), "MT", opt));
+        }
     }
     const std::string name = std::filesystem::path(a.input).filename().string();
     const auto plots = write_stats_plots(ms, a.report, name);
@@ -171,7 +190,7 @@ int run_compare(const CompareArgs& a) {
 }
 
 const CommandRegistration registration{Command{
-    "compare", "Build HT and MT of a volume, run every query, write a Markdown report", 45,
+    "compare", "Build HT and MT of a volume (or load a container's), run every query, write a Markdown report", 45,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<CompareArgs>();
         sub.add_option("input", a->input, "Input volume")->required();

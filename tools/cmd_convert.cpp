@@ -23,6 +23,7 @@ struct ConvertArgs {
     int level = 19;
     int brick_log2 = 4;
     int error_bits = 4;
+    double max_shape_ratio = 0;
     std::string model = "ht";
 };
 
@@ -63,6 +64,7 @@ int run_convert(const ConvertArgs& a) {
     wo.zstd_level = a.level;
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
+    wo.mt_max_shape_ratio = a.max_shape_ratio;
     wo.source_path = a.input;
     wo.converter = "tetlod convert";
     wo.progress = [&](const std::string& stage, std::size_t done, std::size_t total) {
@@ -131,6 +133,12 @@ const CommandRegistration registration{Command{
                        "Mantissa bits of stored error bounds (bound <= error * (1 + 2^-N))")
             ->capture_default_str()
             ->check(CLI::Range(0, 7))
+            ->group(g);
+        sub.add_option("--max-shape-ratio", a->max_shape_ratio,
+                       "MT: refuse collapses creating tets whose circumradius / shortest edge exceeds R "
+                       "(fewer slivers, more tets); 0: no cap")
+            ->capture_default_str()
+            ->check(CLI::NonNegativeNumber)
             ->group(g);
         sub.footer("Examples:\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod\n"

@@ -19,6 +19,7 @@ struct ExtractArgs {
     LodFlags lod;
     bool pad = false, no_compress = false;
     std::string compress = "zlib";
+    double max_shape_ratio = 0;
     int compress_level = 0;
     VolumeFlags volume;
 };
@@ -82,6 +83,7 @@ int run_extract(const ExtractArgs& a) {
 
     ModelBuildOptions build_options;
     build_options.pad = a.pad;
+    build_options.mt_max_shape_ratio = a.max_shape_ratio;
     const LodModel model = build_model(mt ? ModelKind::Mt : ModelKind::Ht, std::move(volume), build_options);
     const double build_seconds = model.build_seconds;
     const std::array<double, 2> range = model.range;
@@ -148,6 +150,11 @@ const CommandRegistration registration{Command{
         sub.add_option("--format", a->format, "Mesh format (default: from the extension)")
             ->group(model)
             ->check(CLI::IsMember(mesh_format_names()));
+        sub.add_option("--max-shape-ratio", a->max_shape_ratio,
+                       "MT built from a volume: refuse collapses creating tets whose circumradius / shortest "
+                       "edge exceeds R; 0: no cap")
+            ->group(model)
+            ->check(CLI::NonNegativeNumber);
         sub.add_option("--compress", a->compress,
                        "Block compressor of .vtu arrays: zlib (read everywhere), lz4 (fastest; VTK/ParaView only), "
                        "lzma (smallest) or none")

@@ -81,7 +81,9 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     std::optional<MtModel> mt;
     if (o.mt) {
         progress("build MT", 0, 0);
-        mt = MtModel::build(volume);
+        MtBuildOptions mo;
+        mo.max_shape_ratio = o.mt_max_shape_ratio;
+        mt = MtModel::build(volume, mo);
         progress("built MT", 0, 0);
     }
     if (o.ht) {

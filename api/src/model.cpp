@@ -70,7 +70,9 @@ LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& opt
         }
         return m;
     }
-    auto mt = std::make_shared<const MtModel>(MtModel::build(std::move(volume)));
+    MtBuildOptions mo;
+    mo.max_shape_ratio = options.mt_max_shape_ratio;
+    auto mt = std::make_shared<const MtModel>(MtModel::build(std::move(volume), mo));
     LodModel m = make_lod_model(mt);
     m.build_seconds = clock.seconds();
     if (options.measure_storage) {

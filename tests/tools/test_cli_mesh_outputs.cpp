@@ -188,4 +188,21 @@ TEST(CliMeshOutputs, CompareWritesAReportWithItsPlots) {
     EXPECT_EQ(j["models"].size(), 2u);
 }
 
+TEST(CliMeshOutputs, CompareOnAContainerMeasuresItsStoredModels) {
+    ASSERT_EQ(cli("convert '" + ball_raw() + "' '" + tmp("both.tlod") + "' --model ht,mt").code, 0);
+    ASSERT_EQ(cli("convert '" + ball_raw() + "' '" + tmp("ht.tlod") + "'").code, 0);
+    ASSERT_EQ(cli("convert '" + ball_raw() + "' '" + tmp("mt.tlod") + "' --model mt").code, 0);
+    CliResult r = cli("compare '" + tmp("both.tlod") + "' --report '" + tmp("report_both") + "'");
+    ASSERT_EQ(r.code, 0) << r.err;
+    auto j = nlohmann::json::parse(slurp(tmp("report_both/stats.json")));
+    ASSERT_EQ(j["models"].size(), 2u);
+    r = cli("compare '" + tmp("ht.tlod") + "' --report '" + tmp("report_ht") + "'");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(slurp(tmp("report_ht/report.md")).find("not in the container"), std::string::npos);
+    EXPECT_EQ(nlohmann::json::parse(slurp(tmp("report_ht/stats.json")))["models"].size(), 1u);
+    r = cli("compare '" + tmp("mt.tlod") + "' --report '" + tmp("report_mt") + "'");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("holds no HT"), std::string::npos) << r.err;
+}
+
 }  // namespace

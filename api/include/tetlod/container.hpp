@@ -36,6 +36,9 @@ struct ContainerWriteOptions {
     int zstd_level = 19;         // every section, 1..22
     int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
+    /// MT: refuse collapses whose new tets have a circumradius / shortest edge
+    /// ratio above this (no slivers, more tets); 0: no cap.
+    double mt_max_shape_ratio = 0;
     /// Provenance recorded in the metadata: the source file (name, size, XXH64,
     /// when `source_path` names a readable file), the converter and the time.
     std::string source_path;

@@ -24,6 +24,9 @@ struct ModelBuildOptions {
     /// Also measure what the comparison reports: encode the model to count
     /// stored_bytes and, for the MT, extract its full mesh for tets_per_split.
     bool measure_storage = false;
+    /// MT only: the largest circumradius / shortest edge ratio a collapse may
+    /// create (MtBuildOptions::max_shape_ratio); 0: no cap.
+    double mt_max_shape_ratio = 0;
 };
 
 /// Builds `kind` from `volume` (moved in). Throws tetlod::Error(InvalidArgument)
