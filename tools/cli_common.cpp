@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -59,6 +60,27 @@ void set_progress(std::optional<bool> forced) { g_progress = forced; }
 bool show_progress() {
     if (g_progress) return *g_progress;
     return g_verbosity >= 0 && ::isatty(STDERR_FILENO);
+}
+
+ProgressBar::ProgressBar(std::string what, std::string unit)
+    : what_(std::move(what)), unit_(std::move(unit)), on_(show_progress()) {}
+
+ProgressBar::~ProgressBar() {
+    if (drawn_) std::fprintf(stderr, "\r%*s\r", 72, "");
+}
+
+void ProgressBar::update(uint64_t done, uint64_t total) {
+    if (!on_) return;
+    const double now = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    if (done < total && now - last_ < 0.1) return;
+    last_ = now;
+    const int width = 30;
+    const int fill = total ? int(width * std::min(done, total) / total) : width;
+    std::fprintf(stderr, "\r%s [%.*s%*s] %llu/%llu %s", what_.c_str(), fill, "##############################",
+                 width - fill, "", static_cast<unsigned long long>(done), static_cast<unsigned long long>(total),
+                 unit_.c_str());
+    std::fflush(stderr);
+    drawn_ = true;
 }
 
 std::ostream& out() {

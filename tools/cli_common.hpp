@@ -28,6 +28,21 @@ void set_progress(std::optional<bool> forced);
 /// Whether long steps draw progress on stderr: forced by --progress/--no-progress,
 /// else when stderr is a terminal and not -q (zstd's convention).
 bool show_progress();
+
+/// A progress bar on stderr for one long step ("decoding [####    ] 12/40 chunks"),
+/// drawn only when show_progress(), at most every 100 ms, erased when done.
+class ProgressBar {
+public:
+    ProgressBar(std::string what, std::string unit);
+    ~ProgressBar();
+    void update(uint64_t done, uint64_t total);
+
+private:
+    std::string what_, unit_;
+    bool on_;
+    double last_ = -1;
+    bool drawn_ = false;
+};
 /// Where results go: stdout, or a sink that drops everything under -q; stderr
 /// when the command writes its output to standard output ("-").
 std::ostream& out();

@@ -70,7 +70,13 @@ int run_decode(const DecodeArgs& a) {
     Stopwatch clock;
 
     if (!lod) {  // the original volume, bit-exact
-        const Volume v = container ? decode_container(a.input).take() : load_volume(a.input, a.volume.options());
+        Volume v;
+        if (container) {
+            ProgressBar bar("decoding", "chunks");
+            v = decode_container(a.input, [&](uint64_t done, uint64_t total) { bar.update(done, total); }).take();
+        } else {
+            v = load_volume(a.input, a.volume.options());
+        }
         write_volume(v, a.output, a.format);
         warn_metadata_lost(v, a.output, a.format);
         print_written(a.output, where, v, clock.seconds());

@@ -66,7 +66,7 @@ Expected<StoredModel> stored_ht(tlod::ContainerReader& r) {
 
 }  // namespace
 
-Expected<Volume> decode_container(const std::string& path) {
+Expected<Volume> decode_container(const std::string& path, const std::function<void(uint64_t, uint64_t)>& progress) {
     auto r = tlod::ContainerReader::open(path);
     if (!r) return r.failure();
     const bool has_ht = (r->header().required_features & tlod::kFeatureHt) != 0;
@@ -77,7 +77,7 @@ Expected<Volume> decode_container(const std::string& path) {
         if (!mt) return mt.failure();
         return described_mt_field(*mt, layout->metadata);
     }
-    return decode_volume(*r);
+    return decode_volume(*r, progress);
 }
 
 Expected<StoredModel> open_stored_model(const std::string& path, ModelKind model) {

@@ -56,3 +56,25 @@ TEST(CliReproducible, MalformedSourceDateEpochIsAUsageError) {
 }
 
 }  // namespace
+
+namespace {
+
+// Progress bars: forced on with --progress (even when stderr is not a terminal,
+// as here), never with --no-progress or -q, and not by default off a terminal.
+TEST(CliProgress, FlagsDecideWhetherBarsAreDrawn) {
+    const std::string d = dir();
+    ASSERT_EQ(run("-q sample multiscale '" + d + "/p_33x33x33_uint8.raw' --size 33").code, 0);
+    ASSERT_EQ(run("-q convert '" + d + "/p_33x33x33_uint8.raw' '" + d + "/p.tlod'").code, 0);
+    auto r = run("--progress decode '" + d + "/p.tlod' '" + d + "/p.raw'");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("decoding ["), std::string::npos) << r.err;
+    r = run("--progress convert '" + d + "/p_33x33x33_uint8.raw' '" + d + "/p2.tlod'");
+    EXPECT_NE(r.err.find("encoding ["), std::string::npos) << r.err;
+    for (const char* off : {"--no-progress", "-q", ""}) {
+        r = run(std::string(off) + " decode '" + d + "/p.tlod' '" + d + "/p.raw'");
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_EQ(r.err.find("decoding ["), std::string::npos) << off << ": " << r.err;
+    }
+}
+
+}  // namespace

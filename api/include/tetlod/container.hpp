@@ -152,7 +152,9 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
 /// The volume a container stores, bit-exact: same value type, spacing, origin,
 /// field name, units and user metadata (from the HT's field, or an MT-only
 /// container's MT field).
-Expected<Volume> decode_container(const std::string& path);
+/// `progress` (optional) is called as chunks are decoded: (done, total).
+Expected<Volume> decode_container(const std::string& path,
+                                  const std::function<void(uint64_t done, uint64_t total)>& progress = {});
 
 /// A container's stored `model` together with the volume it stores, decoding
 /// the field once (what open_model + decode_container would give). An MT request

@@ -48,10 +48,12 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want) {
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
 Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
-                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors) {
+                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors,
+                                 const std::function<void(uint64_t, uint64_t)>& progress) {
     const Geometry G = geometry_of(L.domain, L.brick_log2);
     const int m = L.error_mantissa_bits;
-    uint64_t decoded = 0;
+    uint64_t decoded = 0, to_decode = 0;
+    for (std::size_t j = 0; j < L.chunks.size(); ++j) to_decode += want[j] && !done[j];
     std::size_t i = 0;
     while (i < L.chunks.size()) {
         std::size_t e = i;
@@ -121,6 +123,7 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
             if (f.code != ErrorCode::Ok) return f;
         for (std::size_t j : ids) done[j] = 1;
         decoded += ids.size();
+        if (progress) progress(decoded, to_decode);
         i = e;
     }
     return decoded;

@@ -17,7 +17,8 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want);
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
 Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
-                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors);
+                                 std::vector<char>& done, Volume& field, ZeroedVector<float>* errors,
+                                 const std::function<void(uint64_t, uint64_t)>& progress = {});
 
 /// The zero field on B of `L` and, when `errors` is non-null, one zero error per
 /// grid point. Both are untouched zero pages (ZeroedVector) until decoded, so a

@@ -32,7 +32,7 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
     auto allocated = allocate_decoded(r.name(), L, req.errors ? &errors : nullptr);
     if (!allocated) return allocated.failure();
     Volume field = std::move(*allocated);
-    auto n = decode_chunks(r, L, want, done, field, req.errors ? &errors : nullptr);
+    auto n = decode_chunks(r, L, want, done, field, req.errors ? &errors : nullptr, req.progress);
     if (!n) return n.failure();
     out.chunks_decoded = *n;
     if (req.errors) {
@@ -49,9 +49,10 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& r, const HtDecodeRequest& r
     return out;
 }
 
-Expected<Volume> decode_volume(tlod::ContainerReader& r) {
+Expected<Volume> decode_volume(tlod::ContainerReader& r, const std::function<void(uint64_t, uint64_t)>& progress) {
     HtDecodeRequest req;
     req.errors = false;
+    req.progress = progress;
     auto d = decode_ht(r, req);
     if (!d) return d.failure();
     Volume& f = d->field;

@@ -71,6 +71,8 @@ struct HtDecodeRequest {
     /// Decode only chunks needed for this inclusive index box (and their predictors).
     std::optional<std::array<int64_t, 6>> box;
     bool errors = true;
+    /// Called after each cycle with (chunks decoded, chunks to decode).
+    std::function<void(uint64_t done, uint64_t total)> progress;
 };
 
 struct HtDecoded {
@@ -100,7 +102,8 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery&
                                   HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr);
 
 /// The original volume, bit-exact (padding removed), with its metadata restored.
-Expected<Volume> decode_volume(tlod::ContainerReader& reader);
+Expected<Volume> decode_volume(tlod::ContainerReader& reader,
+                               const std::function<void(uint64_t done, uint64_t total)>& progress = {});
 
 /// Loads the whole HT of a .tlod file as a model ready for extraction (decodes
 /// every chunk; lazy loading comes later). Throws tetlod::Error naming the file.
