@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <fcntl.h>
@@ -17,6 +18,19 @@
 #include <new>
 
 #include "tetlod/core/error.hpp"
+
+// AddressSanitizer maps terabytes of shadow memory as private writable memory:
+// under it, a data limit would make every allocation in the child fail.
+#if defined(__SANITIZE_ADDRESS__)
+#define TETLOD_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TETLOD_ASAN 1
+#endif
+#endif
+#ifndef TETLOD_ASAN
+#define TETLOD_ASAN 0
+#endif
 
 namespace tetlod {
 
@@ -99,6 +113,12 @@ double isolation_time_limit(const IsolationOptions& options, uint64_t input_byte
     return std::max(0.0, options.base_seconds) + std::max(0.0, options.seconds_per_mib) * mib;
 }
 
+uint64_t isolation_memory_limit(const IsolationOptions& options, uint64_t input_bytes) {
+    if (options.memory_limit_bytes > 0) return options.memory_limit_bytes;
+    const double limit = double(options.memory_base_bytes) + options.memory_per_input_byte * double(input_bytes);
+    return limit >= 1.8e19 ? 0 : uint64_t(limit);
+}
+
 void IsolatedWriter::write(const void* data, std::size_t size) {
     const char* p = static_cast<const char*>(data);
     while (size > 0) {
@@ -175,6 +195,10 @@ void run_isolated(const IsolatedTask& task, const std::function<void(IsolatedWri
         // can name it: handlers inherited from the parent (sanitizers', libFuzzer's)
         // would turn it into an ordinary exit and, under libFuzzer, write a crash file.
         for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
+        if (task.memory_limit_bytes > 0 && !TETLOD_ASAN) {
+            const rlimit cap{rlim_t(task.memory_limit_bytes), rlim_t(task.memory_limit_bytes)};
+            ::setrlimit(RLIMIT_DATA, &cap);
+        }
         int status = 0;
         try {
             IsolatedWriter w(fds[1]);

@@ -12,6 +12,8 @@
 #include <new>
 
 #include "tetlod/core/error.hpp"
+#include <vector>
+
 #include "tetlod/core/isolated_process.hpp"
 #include "tetlod/core/isolated_volume.hpp"
 #include "tetlod/core/regular_file.hpp"
@@ -40,6 +42,40 @@ TEST(Isolation, ResultComesBack) {
     run_isolated(task(), [](IsolatedWriter& w) { w.write("hello", 5); },
                  [&](IsolatedReader& r) { r.read(got.data(), 5); });
     EXPECT_EQ(got, "hello");
+}
+
+TEST(Isolation, MemoryLimitEndsAGreedyChild) {
+#ifdef TETLOD_SANITIZED
+    GTEST_SKIP() << "no memory limit under AddressSanitizer (its shadow memory counts)";
+#endif
+    IsolatedTask t = task();
+    t.memory_limit_bytes = uint64_t{64} << 20;
+    try {
+        run_isolated(
+            t,
+            [](IsolatedWriter& w) {
+                std::vector<char> big(std::size_t{1} << 30, 1);  // 1 GiB: past the limit
+                w.write(big.data(), 4);
+            },
+            [](IsolatedReader& r) {
+                char b[4];
+                r.read(b, 4);
+            });
+        ADD_FAILURE() << "the child allocated past its limit";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.code(), ErrorCode::TooLarge) << e.what();
+        EXPECT_NE(std::string(e.what()).find("ran out of memory"), std::string::npos) << e.what();
+    }
+    // The same child with room succeeds; the automatic limit grows with the input.
+    t.memory_limit_bytes = 0;
+    std::string got(2, '\0');
+    run_isolated(t, [](IsolatedWriter& w) { w.write("ok", 2); }, [&](IsolatedReader& r) { r.read(got.data(), 2); });
+    EXPECT_EQ(got, "ok");
+    IsolationOptions o;
+    EXPECT_EQ(isolation_memory_limit(o, 0), uint64_t{96} << 20);
+    EXPECT_GT(isolation_memory_limit(o, uint64_t{1} << 20), uint64_t{12} << 30);  // 1 MiB file: > 12 GiB
+    o.memory_limit_bytes = 1234;
+    EXPECT_EQ(isolation_memory_limit(o, 1 << 20), 1234u);
 }
 
 TEST(Isolation, CrashBecomesCorruptData) {

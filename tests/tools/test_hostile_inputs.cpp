@@ -431,4 +431,19 @@ TEST(HostileInputs, ContainerWriterRefusesWhatItsReaderRefuses) {
     EXPECT_TRUE(parse_metadata(serialize_metadata(m)).ok());
 }
 
+// A 10 KiB .vdb found by fuzz_vdb_reader (kept in its seed corpus) made
+// OpenVDB allocate 7 GB in the isolated child until the time limit killed it.
+// The child's memory limit (IsolationOptions, by input size) now ends it at
+// the first oversized allocation.
+TEST(HostileInputs, CorruptVdbCannotMakeTheLibraryAllocateGigabytes) {
+#ifdef TETLOD_SANITIZED
+    GTEST_SKIP() << "under AddressSanitizer the child has no memory limit (its shadow memory would exceed any)";
+#endif
+    const std::string in = std::string(TETLOD_FUZZ_CORPUS_DIR) + "/vdb/regress_openvdb_7gb_allocation.vdb";
+    ASSERT_TRUE(fs::exists(in)) << in;
+    const std::string dir = fresh_dir("vdb_alloc");
+    const std::string out = dir + "/v.tlod";
+    expect_refused("convert '" + in + "' '" + out + "'", "vdb_fuzz_7gb_allocation", {in}, out);
+}
+
 }  // namespace

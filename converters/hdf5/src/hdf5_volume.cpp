@@ -444,7 +444,8 @@ Volume read_hdf5(const std::string& file, const std::string& dataset, const Volu
     hdf5_guard::check_hdf5_superblock(file, file_size);
     if (!options.isolation.enabled) return read_hdf5_here(file, dataset, options, file_size);
     // libhdf5 crashes or loops on some corrupt files: it reads in a child process.
-    IsolatedTask task{"the HDF5 library", file, isolation_time_limit(options.isolation, file_size)};
+    IsolatedTask task{"the HDF5 library", file, isolation_time_limit(options.isolation, file_size),
+                      isolation_memory_limit(options.isolation, file_size)};
     return read_volume_isolated(task, [&] { return read_hdf5_here(file, dataset, options, file_size); });
 }
 

@@ -315,7 +315,8 @@ Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, 
 std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path) {
     const uint64_t size = check_before_library(path);
     vdb_guard::check_vdb_layout(path, size);
-    IsolatedTask task{"OpenVDB", path, isolation_time_limit(IsolationOptions{}, size)};
+    IsolatedTask task{"OpenVDB", path, isolation_time_limit(IsolationOptions{}, size),
+                      isolation_memory_limit(IsolationOptions{}, size)};
     return read_pairs_isolated(task, [&] { return list_vdb_grids_here(path); });
 }
 
@@ -325,7 +326,8 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
     vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
     if (!options.isolation.enabled) return read_vdb_here(path, options, size);
     // OpenVDB overflows its heap on some corrupt files: it reads in a child process.
-    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size)};
+    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size),
+                      isolation_memory_limit(options.isolation, size)};
     return read_volume_isolated(task, [&] { return read_vdb_here(path, options, size); });
 }
 

@@ -27,10 +27,21 @@ struct IsolationOptions {
     double timeout_seconds = 0;
     double base_seconds = 10;
     double seconds_per_mib = 2;
+    /// Memory the child may allocate (heap and private mappings, RLIMIT_DATA;
+    /// not applied in AddressSanitizer builds, whose shadow memory counts):
+    /// > 0: fixed; 0: base + per input byte, so a tiny file cannot make the
+    /// library allocate gigabytes (a 10 KB corrupt .vdb made OpenVDB take 7 GB).
+    /// The default per-byte factor allows the 4096x expansion the readers'
+    /// own checks accept (sparse and compressed data), three times over.
+    uint64_t memory_limit_bytes = 0;
+    uint64_t memory_base_bytes = uint64_t{96} << 20;
+    double memory_per_input_byte = 3 * 4096.0;
 };
 
 /// The time limit for an input of `input_bytes` bytes.
 double isolation_time_limit(const IsolationOptions& options, uint64_t input_bytes);
+/// The child's memory limit for an input of `input_bytes` bytes (0: none).
+uint64_t isolation_memory_limit(const IsolationOptions& options, uint64_t input_bytes);
 
 /// The child's end of the result pipe.
 class IsolatedWriter {
@@ -64,6 +75,9 @@ struct IsolatedTask {
     /// The file being read, for messages.
     std::string file;
     double time_limit_seconds = 10;
+    /// RLIMIT_DATA of the child (0: none); running past it is an allocation
+    /// failure in the child, reported as TooLarge.
+    uint64_t memory_limit_bytes = 0;
 };
 
 /// Runs `child` in a forked process and `parent` here, connected by a pipe.
