@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <ostream>
 
 #include "cli_common.hpp"
@@ -55,6 +56,7 @@ int run_convert(const ConvertArgs& a) {
            format_seconds(sw.seconds()));
 
     const bool bar = show_progress();
+    std::optional<ProgressBar> encoding;
     const double n = double(v.dims.count());
     const std::size_t value_bytes = value_size(v.type);
     ContainerWriteOptions wo;
@@ -76,14 +78,11 @@ int run_convert(const ConvertArgs& a) {
             if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");
         } else if (stage == "built HT") {
             detail("built the HT in " + format_seconds(sw.seconds()));
-        } else if (stage == "encode HT" && bar) {
-            const int width = 40;
-            const int fill = total ? int(width * done / total) : width;
-            std::fprintf(stderr, "\rencoding [%.*s%*s] %zu/%zu chunks", fill,
-                         "########################################", width - fill, "", done, total);
-            std::fflush(stderr);
-        } else if (stage == "encoded HT" && bar) {
-            std::fprintf(stderr, "\n");
+        } else if (stage == "encode HT") {
+            if (!encoding) encoding.emplace("encoding", "chunks");
+            encoding->update(done, total);
+        } else if (stage == "encoded HT") {
+            encoding.reset();  // erases the bar
         }
     };
     const ContainerWriteSummary written = write_container(std::move(v), a.output, wo);

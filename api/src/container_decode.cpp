@@ -26,22 +26,6 @@ Volume described_mt_field(const MtModel& mt, const tlod::Metadata& meta) {
     return v;
 }
 
-// The original (unpadded) volume out of a decoded HT field, with its description.
-Volume crop(const Volume& f, const Dims& src) {
-    Volume out = Volume::allocate(src, f.type);
-    const std::size_t w = value_size(f.type);
-    for (int64_t z = 0; z < src.z; ++z)
-        for (int64_t y = 0; y < src.y; ++y)
-            std::copy_n(f.data.data() + std::size_t(f.dims.index(0, y, z)) * w, std::size_t(src.x) * w,
-                        out.data.data() + std::size_t(src.index(0, y, z)) * w);
-    out.spacing = f.spacing;
-    out.origin = f.origin;
-    out.field_name = f.field_name;
-    out.units = f.units;
-    out.metadata = f.metadata;
-    return out;
-}
-
 Expected<StoredModel> stored_mt(tlod::ContainerReader& r) {
     auto layout = read_mt_layout(r);
     if (!layout) return layout.failure();
@@ -56,10 +40,12 @@ Expected<StoredModel> stored_mt(tlod::ContainerReader& r) {
 Expected<StoredModel> stored_ht(tlod::ContainerReader& r) {
     auto d = decode_ht(r);
     if (!d) return d.failure();
-    Volume original = crop(d->field, d->layout.metadata.dims);
+    // The original (unpadded) volume: the data's corner of the decoded field.
+    auto original = capture([&] { return crop_volume(d->field, d->layout.metadata.dims); });
+    if (!original) return original.failure();
     auto ht = std::make_shared<const HtModel>(
         HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors)));
-    StoredModel s{make_lod_model(ht), std::move(original)};
+    StoredModel s{make_lod_model(ht), std::move(*original)};
     s.model.stored_what = ".tlod file";
     return s;
 }

@@ -12,6 +12,20 @@ namespace tetlod {
 
 namespace {
 
+// What both models report before extracting: the data's description, and the
+// query with its thresholds resolved against the stored value range.
+ContainerExtract described(ModelKind model, const tlod::Metadata& meta, LodQuery& query,
+                           const ThresholdResolver& resolve) {
+    ContainerExtract x;
+    x.model = model;
+    x.dims = meta.dims;
+    x.type = meta.type;
+    x.range = meta.value_range;
+    if (resolve) resolve(query, x.range);
+    x.query = query;
+    return x;
+}
+
 Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerReader& r, LodQuery query,
                                       const ThresholdResolver& resolve, const Stopwatch& clock) {
     if (!container_has_mt(r))
@@ -21,13 +35,7 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
     if (!layout) return layout.failure();
     auto model = decode_mt_container(r);
     if (!model) return model.failure();
-    ContainerExtract x;
-    x.model = ModelKind::Mt;
-    x.dims = layout->metadata.dims;
-    x.type = layout->metadata.type;
-    x.range = layout->metadata.value_range;
-    if (resolve) resolve(query, x.range);
-    x.query = query;
+    ContainerExtract x = described(ModelKind::Mt, layout->metadata, query, resolve);
     auto mesh = capture([&] { return model->extract(query); });  // CorruptData on an inconsistent MT
     if (!mesh) return mesh.failure();
     x.mesh = std::move(*mesh);
@@ -47,13 +55,7 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
     if (model == ModelKind::Mt) return extract_mt(path, *r, std::move(query), resolve, clock);
     auto layout = read_ht_layout(*r);
     if (!layout) return layout.failure();
-    ContainerExtract x;
-    x.model = ModelKind::Ht;
-    x.dims = layout->metadata.dims;
-    x.type = layout->metadata.type;
-    x.range = layout->metadata.value_range;
-    if (resolve) resolve(query, x.range);
-    x.query = query;
+    ContainerExtract x = described(ModelKind::Ht, layout->metadata, query, resolve);
     HtExtractStats stats;
     HtLazyStats lazy;
     auto mesh = extract_ht_lazy(*r, query, &stats, &lazy);

@@ -1,5 +1,7 @@
 #include "tetlod/core/volume.hpp"
 
+#include <cstring>
+
 #include <cmath>
 #include <limits>
 
@@ -48,6 +50,23 @@ void Volume::set_value(int64_t i, double value) {
         T v = static_cast<T>(value);
         std::memcpy(data.data() + static_cast<std::size_t>(i) * sizeof(T), &v, sizeof(T));
     });
+}
+
+Volume crop_volume(const Volume& v, const Dims& dims) {
+    if (dims.x > v.dims.x || dims.y > v.dims.y || dims.z > v.dims.z)
+        throw Error(ErrorCode::InvalidArgument, "crop_volume: the crop is larger than the volume");
+    Volume out = Volume::allocate(dims, v.type);
+    const std::size_t w = value_size(v.type);
+    for (int64_t z = 0; z < dims.z; ++z)
+        for (int64_t y = 0; y < dims.y; ++y)
+            std::memcpy(out.data.data() + std::size_t(dims.index(0, y, z)) * w,
+                        v.data.data() + std::size_t(v.dims.index(0, y, z)) * w, std::size_t(dims.x) * w);
+    out.spacing = v.spacing;
+    out.origin = v.origin;
+    out.field_name = v.field_name;
+    out.units = v.units;
+    out.metadata = v.metadata;
+    return out;
 }
 
 std::array<double, 2> Volume::range() const {

@@ -58,18 +58,7 @@ Expected<Volume> decode_volume(tlod::ContainerReader& r, const std::function<voi
     Volume& f = d->field;
     const Dims src = d->layout.metadata.dims;
     if (f.dims == src) return std::move(f);
-    Volume out = Volume::allocate(src, f.type);
-    const std::size_t w = value_size(f.type);
-    for (int64_t z = 0; z < src.z; ++z)
-        for (int64_t y = 0; y < src.y; ++y)
-            std::memcpy(out.data.data() + std::size_t(src.index(0, y, z)) * w,
-                        f.data.data() + std::size_t(f.dims.index(0, y, z)) * w, std::size_t(src.x) * w);
-    out.spacing = f.spacing;
-    out.origin = f.origin;
-    out.field_name = f.field_name;
-    out.units = f.units;
-    out.metadata = f.metadata;
-    return out;
+    return capture([&] { return crop_volume(f, src); });  // a padded HT: the data's corner of the cube
 }
 
 HtModel load_ht_model(const std::string& path) {

@@ -71,33 +71,6 @@ uint32_t lattice_bound_code(const Geometry& G, const T* v, int t, int64_t x, int
     return quantize_error(static_cast<float>(best), m);
 }
 
-/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
-/// all its tets are in B and every point they touch is available, so the scan
-/// is the closed-form edge list of its sign pattern over precomputed offsets.
-/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
-template <class T>
-uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t off[27], int m) {
-    if constexpr (std::is_integral_v<T>) {
-        int64_t best = 0;
-        for (int i = 0; i < E.n; ++i) {
-            const int64_t d = 2 * int64_t(c[off[E.m[i]]]) - int64_t(c[off[E.a[i]]]) - int64_t(c[off[E.b[i]]]);
-            best = std::max(best, d < 0 ? -d : d);
-        }
-        return quantize_error(static_cast<float>(double(best) * 0.5), m);
-    } else {
-        double best = 0.0;
-        for (int i = 0; i < E.n; ++i) {
-            const double fa = static_cast<double>(c[off[E.a[i]]]);
-            const double fb = static_cast<double>(c[off[E.b[i]]]);
-            const double fp = static_cast<double>(c[off[E.m[i]]]);
-            const double d = std::fabs(fp - 0.5 * (fa + fb));
-            if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
-            best = std::max(best, d);
-        }
-        return quantize_error(static_cast<float>(best), m);
-    }
-}
-
 /// lattice_bound_code for a diamond inside B (c ± h in B) near its chunk's
 /// faces: the closed-form edge list, skipping edges with a point that is not
 /// available (neither coarser than cycle t nor in the chunk's box).
@@ -114,6 +87,24 @@ uint32_t lattice_bound_near_face(const T* c, const DiamondEdges& E, const int64_
         best = std::max(best, d);
     }
     return quantize_error(static_cast<float>(best), m);
+}
+
+/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
+/// all its tets are in B and every point they touch is available, so the scan
+/// is the closed-form edge list of its sign pattern over precomputed offsets.
+/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
+template <class T>
+uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t off[27], int m) {
+    if constexpr (std::is_integral_v<T>) {
+        int64_t best = 0;
+        for (int i = 0; i < E.n; ++i) {
+            const int64_t d = 2 * int64_t(c[off[E.m[i]]]) - int64_t(c[off[E.a[i]]]) - int64_t(c[off[E.b[i]]]);
+            best = std::max(best, d < 0 ? -d : d);
+        }
+        return quantize_error(static_cast<float>(double(best) * 0.5), m);
+    } else {
+        return lattice_bound_near_face(c, E, off, ~0u, m);  // every point of the lattice is available
+    }
 }
 
 template <class T>

@@ -87,9 +87,8 @@ HtModel HtModel::build(Volume volume, const HtBuildOptions& options) {
     return m;
 }
 
-HtModel HtModel::from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors,
-                            std::optional<std::array<double, 2>> range) {
-    const std::array<double, 2> r = range ? *range : field.range();
+HtModel HtModel::from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors) {
+    const std::array<double, 2> r = field.range();
     return over_shared_parts(std::make_shared<const Volume>(std::move(field)), domain,
                              std::make_shared<const ZeroedVector<float>>(std::move(errors)), r);
 }

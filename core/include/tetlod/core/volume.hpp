@@ -64,6 +64,11 @@ struct Volume {
     std::array<double, 2> range() const;
 };
 
+/// The samples of `v` with index below `dims` on every axis (dims <= v.dims),
+/// with its spacing, origin, names and metadata: a padded grid cut back to
+/// the data it was padded from.
+Volume crop_volume(const Volume& v, const Dims& dims);
+
 /// Checks dims are each in [1, kMaxAxisSize] and the total below kMaxVolumePoints.
 /// Throws tetlod::Error(InvalidArgument or TooLarge) naming `what`.
 void validate_dims(const Dims& dims, const std::string& what);

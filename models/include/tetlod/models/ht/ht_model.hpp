@@ -13,7 +13,6 @@
 #include <array>
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <span>
 #include <vector>
 
@@ -74,11 +73,8 @@ public:
 
     /// Reassembles a model from stored parts (container decoders). `errors` has
     /// one entry per grid point of domain.dims(); entries at points that are not
-    /// diamond centres are ignored. `range`: the field's value range when known
-    /// (a container stores it), else computed by a scan of the field. Throws
-    /// tetlod::Error on inconsistent sizes.
-    static HtModel from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors,
-                              std::optional<std::array<double, 2>> range = std::nullopt);
+    /// diamond centres are ignored. Throws tetlod::Error on inconsistent sizes.
+    static HtModel from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors);
     /// A model over storage it shares with its maker, without copying it: the
     /// lazy container reader decodes further chunks into that storage between
     /// queries (never during one). Same checks as from_parts; `range` is given.
