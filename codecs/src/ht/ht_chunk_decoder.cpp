@@ -45,13 +45,46 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want) {
     }
 }
 
+Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                              ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
+                              std::vector<std::byte>& error_stored) {
+    const int m = L.error_mantissa_bits;
+    auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si) -> Expected<std::vector<std::byte>> {
+        if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
+        return tlod::zstd_decompress(st, si.raw_size);
+    };
+    auto where = [&](uint32_t section) { return r.name() + ": section " + std::to_string(section) + ": "; };
+    auto raw = unpack(field_stored, r.sections()[c.field_section]);
+    if (!raw) return with_context(where(c.field_section), raw.failure());
+    const bool field_ok = dispatch_value_type(type, [&](auto tv) {
+        using T = decltype(tv);
+        if (L.residual_coding == kResidualZigzagPlanes) {
+            decode_field_chunk<T>(G, static_cast<T*>(field), c, raw->data());
+            return true;
+        }
+        return decode_field_chunk_v2<T>(G, static_cast<T*>(field), c, *raw);
+    });
+    if (!field_ok) return fail(ErrorCode::CorruptData, where(c.field_section) + "malformed range-coded stream");
+    if (!errors) return Failure{ErrorCode::Ok, {}};
+    auto er = unpack(error_stored, r.sections()[c.error_section]);
+    if (!er) return with_context(where(c.error_section), er.failure());
+    const bool codes_ok = dispatch_value_type(type, [&](auto tv) {
+        using T = decltype(tv);
+        const T* v = static_cast<const T*>(field);
+        if (L.residual_coding == kResidualZigzagPlanes) return decode_error_chunk<T>(G, v, errors, c, m, er->data());
+        return decode_error_chunk_v2<T>(G, v, errors, c, m, *er);
+    });
+    if (!codes_ok)
+        return fail(ErrorCode::CorruptData, where(c.error_section) + "error code out of range or malformed stream");
+    return Failure{ErrorCode::Ok, {}};
+}
+
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
 Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
                                  std::vector<char>& done, Volume& field, ZeroedVector<float>* errors,
                                  const std::function<void(uint64_t, uint64_t)>& progress) {
     const Geometry G = geometry_of(L.domain, L.brick_log2);
-    const int m = L.error_mantissa_bits;
     uint64_t decoded = 0, to_decode = 0;
     for (std::size_t j = 0; j < L.chunks.size(); ++j) to_decode += want[j] && !done[j];
     std::size_t i = 0;
@@ -74,50 +107,8 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
         }
         std::vector<Failure> fails(ids.size(), Failure{ErrorCode::Ok, {}});
         tbb::parallel_for(std::size_t(0), ids.size(), [&](std::size_t j) {
-            const HtChunk& c = L.chunks[ids[j]];
-            const auto& fsec = r.sections()[c.field_section];
-            auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si)
-                -> Expected<std::vector<std::byte>> {
-                if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
-                return tlod::zstd_decompress(st, si.raw_size);
-            };
-            auto raw = unpack(fst[j], fsec);
-            if (!raw) {
-                fails[j] = with_context(r.name() + ": section " + std::to_string(c.field_section) + ": ",
-                                        raw.failure());
-                return;
-            }
-            const bool field_ok = dispatch_value_type(field.type, [&](auto tv) {
-                using T = decltype(tv);
-                if (L.residual_coding == kResidualZigzagPlanes) {
-                    decode_field_chunk<T>(G, field.as<T>(), c, raw->data());
-                    return true;
-                }
-                return decode_field_chunk_v2<T>(G, field.as<T>(), c, *raw);
-            });
-            if (!field_ok) {
-                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
-                                                            std::to_string(c.field_section) +
-                                                            ": malformed range-coded stream");
-                return;
-            }
-            if (!errors) return;
-            auto er = unpack(est[j], r.sections()[c.error_section]);
-            if (!er) {
-                fails[j] = with_context(r.name() + ": section " + std::to_string(c.error_section) + ": ",
-                                        er.failure());
-                return;
-            }
-            const bool codes_ok = dispatch_value_type(field.type, [&](auto tv) {
-                using T = decltype(tv);
-                if (L.residual_coding == kResidualZigzagPlanes)
-                    return decode_error_chunk<T>(G, field.as<T>(), *errors, c, m, er->data());
-                return decode_error_chunk_v2<T>(G, field.as<T>(), *errors, c, m, *er);
-            });
-            if (!codes_ok)
-                fails[j] = fail(ErrorCode::CorruptData, r.name() + ": section " +
-                                                            std::to_string(c.error_section) +
-                                                            ": error code out of range or malformed stream");
+            fails[j] = decode_chunk_sections(r, L, L.chunks[ids[j]], G, field.type, field.data.data(),
+                                             errors ? errors->data() : nullptr, fst[j], est[j]);
         });
         for (const Failure& f : fails)
             if (f.code != ErrorCode::Ok) return f;

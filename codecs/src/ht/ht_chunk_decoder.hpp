@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "ht_chunk_geometry.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 
 namespace tetlod::ht_detail {
@@ -13,6 +14,14 @@ namespace tetlod::ht_detail {
 /// chunks meeting the wanted chunks' boxes grown by the predictor reach (2^t
 /// at cycle t, spec §6.3). `want` is indexed like L.chunks (file order).
 void add_dependencies(const HtLayout& L, std::vector<char>& want);
+
+/// Decodes chunk `c` from its stored sections (read by the caller; consumed)
+/// into arrays laid out by `G`: the whole field on B, or the chunk's window
+/// (window_for). `errors` null: the field only. Every point the coders read
+/// must hold its decoded value. Failure (code Ok on success) names the section.
+Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                              ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
+                              std::vector<std::byte>& error_stored);
 
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.

@@ -83,7 +83,13 @@ struct Geometry {
     int k = 0;
     int g = 0;
     std::array<int64_t, 3> box_max{};
-    int64_t nx = 0, ny = 0;  // field dims (x, y)
+    // Where the array a coder reads and writes lies: by default the whole field
+    // on B (origin 0, stride 1, dims nx, ny). A chunk decoded on its own uses a
+    // window instead: the lattice of spacing 2^shift from `origin`, which holds
+    // every point its coders touch (window_for).
+    int64_t nx = 0, ny = 0;  // array dims (x, y)
+    std::array<int64_t, 3> origin{0, 0, 0};
+    int shift = 0;
 
     int64_t side(int t) const { return int64_t{1} << (t + 1 + g); }
     std::array<int64_t, 3> bricks(int t) const {
@@ -101,7 +107,13 @@ struct Geometry {
         }
         return r;
     }
-    int64_t index(int64_t x, int64_t y, int64_t z) const { return (z * ny + y) * nx + x; }
+    int64_t index(int64_t x, int64_t y, int64_t z) const {
+        return (((z - origin[2]) >> shift) * ny + ((y - origin[1]) >> shift)) * nx + ((x - origin[0]) >> shift);
+    }
+    /// index(p + (dx, dy, dz)) - index(p) for an offset on the array's lattice.
+    int64_t index_delta(int64_t dx, int64_t dy, int64_t dz) const {
+        return ((dz >> shift) * ny + (dy >> shift)) * nx + (dx >> shift);
+    }
 
     /// Calls f(x, y, z) for the points of cycle t in the box, z outer, x inner.
     template <class F> void for_each_point(int t, const std::array<int64_t, 6>& b, F&& f) const {
@@ -207,6 +219,28 @@ inline Geometry geometry_of(const HtDomain& d, int g) {
     G.nx = d.box_max[0] + 1;
     G.ny = d.box_max[1] + 1;
     return G;
+}
+
+/// The window a chunk of cycle t with box `b` is decoded in on its own: the
+/// lattice of spacing h = 2^t over the box grown by h (clipped to B), where
+/// every point its predictors and error bounds read lies (spec §6.3, §7.3,
+/// §8.3). `count` receives the window's number of points.
+inline Geometry window_for(const Geometry& G, int t, const std::array<int64_t, 6>& b, int64_t* count) {
+    Geometry W = G;
+    const int64_t h = int64_t{1} << t;
+    W.shift = t;
+    int64_t n[3];
+    for (int a = 0; a < 3; ++a) {
+        // b[a] is a multiple of the brick side (>= 2h), so lo stays on the lattice.
+        const int64_t lo = std::max<int64_t>(0, b[a] - h);
+        const int64_t hi = std::min<int64_t>(G.box_max[a], b[3 + a] + h);
+        W.origin[a] = lo;
+        n[a] = hi >= lo ? (hi - lo) / h + 1 : 0;
+    }
+    W.nx = n[0];
+    W.ny = n[1];
+    if (count) *count = n[0] * n[1] * n[2];
+    return W;
 }
 
 inline std::vector<HtChunk> chunk_list(const Geometry& G) {

@@ -166,7 +166,7 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
 
 /// False on a malformed stream or a code out of range.
 template <class T>
-bool decode_error_chunk_v2(const Geometry& G, const T* v, ZeroedVector<float>& e, const HtChunk& c, int m,
+bool decode_error_chunk_v2(const Geometry& G, const T* v, float* e, const HtChunk& c, int m,
                            std::span<const std::byte> in) {
     if (c.diamonds == 0) return in.empty();
     auto models = std::make_unique<ErrorModels>();

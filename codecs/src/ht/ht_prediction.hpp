@@ -127,7 +127,7 @@ struct ChunkFrame {
         for (int oz = -1; oz <= 1; ++oz)
             for (int oy = -1; oy <= 1; ++oy)
                 for (int ox = -1; ox <= 1; ++ox)
-                    off[nb27(ox, oy, oz)] = ((oz * h) * G.ny + oy * h) * G.nx + ox * h;
+                    off[nb27(ox, oy, oz)] = G.index_delta(ox * h, oy * h, oz * h);
     }
     bool interior(int64_t x, int64_t y, int64_t z) const {
         return x - h >= cb[0] && y - h >= cb[1] && z - h >= cb[2] && x + h <= cb[3] && y + h <= cb[4] &&

@@ -60,7 +60,7 @@ std::vector<std::byte> encode_error_chunk(const Geometry& G, const T* v, std::sp
 
 /// False when a code is out of range.
 template <class T>
-bool decode_error_chunk(const Geometry& G, const T* v, ZeroedVector<float>& e, const HtChunk& c, int m,
+bool decode_error_chunk(const Geometry& G, const T* v, float* e, const HtChunk& c, int m,
                         const std::byte* raw) {
     const std::size_t n = c.diamonds;
     if (n == 0) return true;

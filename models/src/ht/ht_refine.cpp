@@ -12,6 +12,11 @@
 // never output nor split for their own sake; tets crossing B's far faces always
 // violate. Diamonds centred outside B therefore never need an error (all their
 // tets cross or lie outside); their split marks live in a small hash set.
+//
+// One algorithm, two instantiations: over the in-memory model's arrays (a
+// split bitset and a vertex index per grid point, the fastest when the grid is
+// in memory anyway), and over a sample source (ht_sample_source.hpp) with the
+// split set and vertex numbering in a hash table sized by the output.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -23,6 +28,8 @@
 #include <vector>
 
 #include "tetlod/models/detail/ht_geometry.hpp"
+#include "tetlod/models/detail/point_id_map.hpp"
+#include "tetlod/models/ht/ht_sample_source.hpp"
 #include "tet_box.hpp"
 #include "../query/lod_query_region.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
@@ -51,20 +58,126 @@ uint64_t pack(const Pt& p) {
     return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
 }
 
+constexpr uint32_t kNoVertex = 0xFFFFFFFFu;
+using VertexIds = std::array<uint32_t, 4>;
+
+// ---- where the data is read: Access (error, value, fork, fill_values) ----
+
+/// The in-memory model's arrays.
+class ArrayAccess {
+public:
+    explicit ArrayAccess(const HtModel& m)
+        : err_(m.diamond_errors().data()), field_(&m.field()), X_(m.field().dims.x),
+          XY_(m.field().dims.x * m.field().dims.y) {}
+    float error(const Pt& p) const { return err_[index(p)]; }
+    void prefetch_error(const Pt& p) const { __builtin_prefetch(&err_[index(p)]); }
+    double value(const Pt& p) const { return field_->value(index(p)); }
+    const ArrayAccess& fork() const { return *this; }
+    void fill_values(const std::vector<Pt>& points, std::vector<double>& values) const {
+        values.resize(points.size());
+        dispatch_value_type(field_->type, [&](auto tag) {  // one type dispatch for all vertices
+            using T = decltype(tag);
+            const T* f = field_->as<T>();
+            for (std::size_t v = 0; v < points.size(); ++v) values[v] = double(f[index(points[v])]);
+        });
+    }
+
+private:
+    int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
+    const float* err_;
+    const Volume* field_;
+    int64_t X_, XY_;
+};
+
+/// A sample source; fork() gives each emit task its own.
+class SourceAccess {
+public:
+    explicit SourceAccess(HtSampleSource& s) : s_(&s) {}
+    explicit SourceAccess(std::unique_ptr<HtSampleSource> owned) : s_(owned.get()), owned_(std::move(owned)) {}
+    float error(const Pt& p) const { return s_->error(p); }
+    void prefetch_error(const Pt&) const {}
+    double value(const Pt& p) const { return s_->value(p); }
+    SourceAccess fork() const { return SourceAccess(s_->fork()); }
+    void fill_values(const std::vector<Pt>& points, std::vector<double>& values) const {
+        values.resize(points.size());
+        for (std::size_t v = 0; v < points.size(); ++v) values[v] = s_->value(points[v]);
+    }
+
+private:
+    HtSampleSource* s_;
+    std::shared_ptr<HtSampleSource> owned_;
+};
+
+// ---- split marks and vertex ids of points in B: Marks ----
+
+/// A bit and a vertex index per grid point, in untouched zero pages until used.
+class DenseMarks {
+public:
+    explicit DenseMarks(const Dims& d) : X_(d.x), XY_(d.x * d.y) {
+        const int64_t n = d.count();
+        split_.resize(static_cast<std::size_t>((n + 63) / 64));
+        ids_.reset(new uint32_t[static_cast<std::size_t>(n)]);
+    }
+    bool split(const Pt& c) const {
+        const int64_t i = index(c);
+        return (split_[i >> 6] >> (i & 63)) & 1;
+    }
+    /// Is c split; if so, its vertex id in `id`.
+    bool split_id(const Pt& c, uint32_t& id) const {
+        const int64_t i = index(c);
+        if (!((split_[i >> 6] >> (i & 63)) & 1)) return false;
+        id = ids_[i];
+        return true;
+    }
+    void mark_split(const Pt& c, uint32_t id) {
+        const int64_t i = index(c);
+        split_[i >> 6] |= uint64_t{1} << (i & 63);
+        ids_[i] = id;
+    }
+    void add_corner(const Pt& c, uint32_t id) { ids_[index(c)] = id; }
+    uint32_t id(const Pt& p) const { return ids_[index(p)]; }
+
+private:
+    int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
+    int64_t X_, XY_;
+    ZeroedVector<uint64_t> split_;
+    std::unique_ptr<uint32_t[]> ids_;  // valid only at vertices (split centres, corners)
+};
+
+/// One hash entry per vertex: id << 1 | split.
+class SparseMarks {
+public:
+    explicit SparseMarks(const Dims&) {}
+    bool split(const Pt& c) const {
+        const uint32_t* v = map_.find(c);
+        return v && (*v & 1);
+    }
+    bool split_id(const Pt& c, uint32_t& id) const {
+        const uint32_t* v = map_.find(c);
+        if (!v || !(*v & 1)) return false;
+        id = *v >> 1;
+        return true;
+    }
+    void mark_split(const Pt& c, uint32_t id) { map_.put(c, id << 1 | 1u); }
+    void add_corner(const Pt& c, uint32_t id) { map_.put(c, id << 1); }
+    uint32_t id(const Pt& p) const {
+        const uint32_t* v = map_.find(p);
+        return v ? *v >> 1 : kNoVertex;
+    }
+
+private:
+    detail::PointIdMap map_;
+};
+
+template <class Access, class Marks>
 class Refiner {
 public:
-    Refiner(const HtModel& model, const LodQuery& q)
-        : dom_(model.domain()),
-          field_(model.field()),
-          err_(model.diamond_errors()),
+    Refiner(const HtDomain& dom, Access access, const LodQuery& q)
+        : dom_(dom),
+          acc_(std::move(access)),
           q_(q),
           bounds_(detail::query_bounds(q)),
-          X_(model.field().dims.x),
-          XY_(model.field().dims.x * model.field().dims.y),
-          n_(model.field().count()) {
-        // Fresh zeroed storage: only the words of split diamonds get committed.
-        split_.resize(static_cast<std::size_t>((n_ + 63) / 64));
-        vertex_id_.reset(new uint32_t[static_cast<std::size_t>(n_)]);
+          marks_(dom.dims()) {
         eps_in_ = bounds_.in;
         eps_out_ = bounds_.out;
         has_region_ = bounds_.region;
@@ -73,14 +186,10 @@ public:
     }
 
     TetMesh run(HtExtractStats* stats) {
-        mesh_.geometry.spacing = field_.spacing;
-        mesh_.geometry.origin = field_.origin;
-        mesh_.field_name = field_.field_name;
-        mesh_.value_type = field_.type;
         // Cube corners inside B are vertices of every mesh.
         for (int m = 0; m < 8; ++m) {
             Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};
-            if (dom_.in_box(c[0], c[1], c[2])) add_vertex(c);
+            if (in_box(c)) marks_.add_corner(c, new_vertex(c));
         }
         ht::MTet roots[6];
         ht::maubach_roots(dom_.L, roots);
@@ -96,7 +205,7 @@ public:
         }
         const auto t1 = std::chrono::steady_clock::now();
         emit_all(roots);
-        fill_values();
+        acc_.fill_values(mesh_.points, mesh_.values);
         const auto t2 = std::chrono::steady_clock::now();
         if (stats) {
             stats->refine_seconds = std::chrono::duration<double>(t1 - t0).count();
@@ -117,35 +226,19 @@ private:
         return t;
     }
 
-    int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
     bool in_box(const Pt& p) const { return dom_.in_box(p[0], p[1], p[2]); }
 
     bool is_split(const Pt& c) const {
-        if (in_box(c)) {
-            const int64_t i = index(c);
-            return (split_[i >> 6] >> (i & 63)) & 1;
-        }
+        if (in_box(c)) return marks_.split(c);
         return outside_split_.count(pack(c)) != 0;
     }
 
-    void add_vertex(const Pt& p) {
-        const int64_t i = index(p);
-        vertex_id_[i] = uint32_t(mesh_.points.size());
+    uint32_t new_vertex(const Pt& p) {
+        if (mesh_.points.size() >= 0x7FFFFFFFu)
+            throw Error(ErrorCode::TooLarge, "the mesh would have more than 2^31 vertices");
         mesh_.points.push_back(p);
+        return uint32_t(mesh_.points.size() - 1);
     }
-
-    /// Vertex values, read once all vertices are known (one type dispatch).
-    void fill_values() {
-        mesh_.values.resize(mesh_.points.size());
-        dispatch_value_type(field_.type, [&](auto tag) {
-            using T = decltype(tag);
-            const T* f = field_.as<T>();
-            for (std::size_t v = 0; v < mesh_.points.size(); ++v)
-                mesh_.values[v] = double(f[index(mesh_.points[v])]);
-        });
-    }
-
-    double vertex_value(const Pt& p) const { return field_.value(index(p)); }
 
     /// Does the tet satisfy its bound (or need no split for its own sake)?
     bool ok(const PendingTet& t) const {
@@ -155,9 +248,9 @@ private:
             case BoxRelation::Inside: break;
         }
         if (t.level >= dom_.max_level()) return true;
-        const double err = err_[index(ht::midpoint(t.v[0], t.v[1]))];
+        const double err = acc_.error(ht::midpoint(t.v[0], t.v[1]));
         if (err <= std::min(eps_in_, eps_out_)) return true;  // no region test needed
-        return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return vertex_value(t.v[i]); }, err);
+        return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return acc_.value(t.v[i]); }, err);
     }
 
     void force(const Pt& start) {
@@ -190,7 +283,7 @@ private:
             int nch = 0;
             if (interior && d.level + 1 < dom_.max_level()) {
                 nch = ht::diamond_children(c, d, dom_.L, ch);
-                for (int i = 0; i < nch; ++i) __builtin_prefetch(&err_[index(ch[i])]);
+                for (int i = 0; i < nch; ++i) acc_.prefetch_error(ch[i]);
             }
             mark_split(c);
             if (!interior || !enqueue_children_fast(ch, nch)) enqueue_children(c, d);
@@ -208,7 +301,7 @@ private:
         int pushed = 0;
         Pt todo[8];
         for (int i = 0; i < n; ++i) {
-            const float e = err_[index(ch[i])];
+            const float e = acc_.error(ch[i]);
             if (e <= eps_min_) continue;
             if (has_region_ && e <= eps_max_) return false;
             todo[pushed++] = ch[i];
@@ -251,13 +344,10 @@ private:
 
     void mark_split(const Pt& c) {
         ++split_count_;
-        if (in_box(c)) {
-            const int64_t i = index(c);
-            split_[i >> 6] |= uint64_t{1} << (i & 63);
-            add_vertex(c);
-        } else {
+        if (in_box(c))
+            marks_.mark_split(c, new_vertex(c));
+        else
             outside_split_.insert(pack(c));
-        }
     }
 
     /// Output of one stretch of the bisection tree.
@@ -268,11 +358,27 @@ private:
         uint64_t visited = 0;
         double max_error = 0;
     };
-    /// A subtree root (or a leaf) of the tree walk, in depth-first order.
+    /// A subtree root (or a leaf) of the tree walk, in depth-first order, with
+    /// its vertex ids (kNoVertex outside B).
     struct EmitItem {
         ht::MTet t;
+        VertexIds ids;
         bool inside, positive;
     };
+
+    /// Vertex id of the centre of a split tet (kNoVertex outside B).
+    uint32_t centre_id(const Pt& c) const { return in_box(c) ? marks_.id(c) : kNoVertex; }
+
+    /// Maubach's children's vertex ids (see ht::maubach_bisect).
+    static void bisect_ids(int tag, const VertexIds& ids, uint32_t centre, VertexIds& c1, VertexIds& c2) {
+        c1 = ids;
+        c1[tag] = centre;
+        switch (tag) {
+            case 3: c2 = {ids[1], ids[2], ids[3], centre}; break;
+            case 2: c2 = {ids[1], ids[2], centre, ids[3]}; break;
+            default: c2 = {ids[1], centre, ids[2], ids[3]}; break;
+        }
+    }
 
     /// Phase 2. The walk is cut at a fixed depth into subtrees, emitted in
     /// parallel into per-chunk buffers and concatenated in depth-first order, so
@@ -280,16 +386,19 @@ private:
     void emit_all(const ht::MTet roots[6]) {
         std::vector<EmitItem> items;
         const int cut = std::min(dom_.max_level(), kEmitCutLevel);
-        for (int r = 0; r < 6; ++r)
-            collect(roots[r], false, ht::orient(roots[r].v[0], roots[r].v[1], roots[r].v[2],
-                                                roots[r].v[3]) > 0,
-                    cut, items);
+        for (int r = 0; r < 6; ++r) {
+            VertexIds ids;
+            for (int i = 0; i < 4; ++i) ids[i] = in_box(roots[r].v[i]) ? marks_.id(roots[r].v[i]) : kNoVertex;
+            collect(roots[r], ids, false,
+                    ht::orient(roots[r].v[0], roots[r].v[1], roots[r].v[2], roots[r].v[3]) > 0, cut, items);
+        }
         const std::size_t chunks = std::min<std::size_t>(items.size(), 256);
         std::vector<EmitBuffer> out(std::max<std::size_t>(chunks, 1));
         auto run_chunk = [&](std::size_t k) {
+            auto acc = acc_.fork();
             const std::size_t b = items.size() * k / chunks, e = items.size() * (k + 1) / chunks;
             for (std::size_t i = b; i < e; ++i)
-                emit(items[i].t, items[i].inside, items[i].positive, out[k]);
+                emit(acc, items[i].t, items[i].ids, items[i].inside, items[i].positive, out[k]);
         };
         if (chunks > 1 && split_count_ > kParallelEmitMinSplits)
             tbb::parallel_for(std::size_t(0), chunks, run_chunk);
@@ -300,21 +409,22 @@ private:
         mesh_.tets.reserve(total);
         mesh_.level.reserve(total);
         mesh_.error.reserve(total);
-        for (const auto& o : out) {
+        for (auto& o : out) {
             mesh_.tets.insert(mesh_.tets.end(), o.tets.begin(), o.tets.end());
             mesh_.level.insert(mesh_.level.end(), o.level.begin(), o.level.end());
             mesh_.error.insert(mesh_.error.end(), o.error.begin(), o.error.end());
             visited_ += o.visited;
             max_error_ = std::max(max_error_, o.max_error);
+            o = EmitBuffer{};  // release as we go
         }
         visited_ += items.size();
     }
 
     /// Walks down to the cut level, recording subtree roots and leaves above it.
-    void collect(const ht::MTet& t, bool inside, bool positive, int cut,
+    void collect(const ht::MTet& t, const VertexIds& ids, bool inside, bool positive, int cut,
                  std::vector<EmitItem>& items) const {
         if (t.level >= cut) {
-            items.push_back({t, inside, positive});
+            items.push_back({t, ids, inside, positive});
             return;
         }
         bool refine = false;
@@ -324,25 +434,30 @@ private:
             refine = rel == BoxRelation::Crossing;
             inside = !refine;
         }
+        const Pt centre = ht::maubach_centre(t);
+        uint32_t cid = kNoVertex;
+        if (refine)
+            cid = centre_id(centre);
+        else
+            refine = marks_.split_id(centre, cid);
         if (!refine) {
-            const int64_t centre = index(ht::maubach_centre(t));
-            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
-        }
-        if (!refine) {
-            items.push_back({t, inside, positive});  // a leaf: emit() outputs it
+            items.push_back({t, ids, inside, positive});  // a leaf: emit() outputs it
             return;
         }
         ht::MTet c1, c2;
+        VertexIds i1, i2;
         ht::maubach_bisect(t, c1, c2);
-        collect(c1, inside, positive, cut, items);
-        collect(c2, inside, t.tag == 2 ? positive : !positive, cut, items);
+        bisect_ids(t.tag, ids, cid, i1, i2);
+        collect(c1, i1, inside, positive, cut, items);
+        collect(c2, i2, inside, t.tag == 2 ? positive : !positive, cut, items);
     }
 
     /// `inside`: the tet is known to lie inside B (then so do its descendants).
     /// `positive`: its vertex order is positively oriented. Maubach's children
     /// keep the parent's orientation (first child) or flip it when the tag is 3
     /// or 1 (second child), so no determinant is needed per tet.
-    void emit(const ht::MTet& t, bool inside, bool positive, EmitBuffer& out) const {
+    template <class A>
+    void emit(A& acc, const ht::MTet& t, const VertexIds& ids, bool inside, bool positive, EmitBuffer& out) const {
         ++out.visited;
         bool refine = false;
         if (!inside) {
@@ -351,24 +466,28 @@ private:
             refine = rel == BoxRelation::Crossing;
             inside = !refine;
         }
-        int64_t centre = -1;
-        if (!refine && t.level < dom_.max_level()) {
-            centre = index(ht::maubach_centre(t));
-            refine = (split_[centre >> 6] >> (centre & 63)) & 1;
-        }
-        if (!refine) {
-            output(t, positive, centre < 0 ? 0.0f : err_[centre], out);  // unit tets: no error
+        uint32_t cid = kNoVertex;
+        if (t.level < dom_.max_level()) {
+            const Pt centre = ht::maubach_centre(t);
+            if (refine)
+                cid = centre_id(centre);
+            else if (!marks_.split_id(centre, cid)) {
+                output(t, ids, positive, acc.error(centre), out);
+                return;
+            }
+        } else if (!refine) {
+            output(t, ids, positive, 0.0f, out);  // unit tets: no error
             return;
         }
         ht::MTet c1, c2;
+        VertexIds i1, i2;
         ht::maubach_bisect(t, c1, c2);
-        emit(c1, inside, positive, out);
-        emit(c2, inside, t.tag == 2 ? positive : !positive, out);
+        bisect_ids(t.tag, ids, cid, i1, i2);
+        emit(acc, c1, i1, inside, positive, out);
+        emit(acc, c2, i2, inside, t.tag == 2 ? positive : !positive, out);
     }
 
-    void output(const ht::MTet& t, bool positive, float err, EmitBuffer& out) const {
-        std::array<uint32_t, 4> ids;
-        for (int i = 0; i < 4; ++i) ids[i] = vertex_id_[index(t.v[i])];
+    void output(const ht::MTet& t, VertexIds ids, bool positive, float err, EmitBuffer& out) const {
         if (!positive) std::swap(ids[2], ids[3]);
         out.tets.push_back(ids);
         out.level.push_back(t.level);
@@ -377,17 +496,14 @@ private:
     }
 
     const HtDomain& dom_;
-    const Volume& field_;
-    const std::span<const float> err_;
+    Access acc_;
     const LodQuery& q_;
     const detail::QueryBounds bounds_;  // after q_: initialised from it
-    const int64_t X_, XY_, n_;
     double eps_in_ = 0, eps_out_ = 0, eps_min_ = 0, eps_max_ = 0;
     bool has_region_ = false;
 
-    ZeroedVector<uint64_t> split_;
+    Marks marks_;
     std::unordered_set<uint64_t> outside_split_;
-    std::unique_ptr<uint32_t[]> vertex_id_;  // valid only at vertices (split centres, corners)
     std::vector<Pt> pending_;  // diamonds to force
     std::vector<Pt> stack_;
     TetMesh mesh_;
@@ -399,7 +515,18 @@ private:
 
 TetMesh HtModel::extract(const LodQuery& query, HtExtractStats* stats) const {
     detail::check_query(query);
-    Refiner r(*this, query);
+    Refiner<ArrayAccess, DenseMarks> r(domain_, ArrayAccess(*this), query);
+    TetMesh mesh = r.run(stats);
+    mesh.geometry.spacing = field_->spacing;
+    mesh.geometry.origin = field_->origin;
+    mesh.field_name = field_->field_name;
+    mesh.value_type = field_->type;
+    return mesh;
+}
+
+TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, HtExtractStats* stats) {
+    detail::check_query(query);
+    Refiner<SourceAccess, SparseMarks> r(domain, SourceAccess(source), query);
     return r.run(stats);
 }
 

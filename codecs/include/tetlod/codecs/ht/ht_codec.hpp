@@ -89,17 +89,25 @@ Expected<HtDecoded> decode_ht(tlod::ContainerReader& reader, const HtDecodeReque
 
 struct HtLazyStats {
     uint64_t chunks_total = 0;
-    uint64_t chunks_decoded = 0;
+    uint64_t chunks_decoded = 0;    // distinct chunks decoded
+    uint64_t chunk_decodes = 0;     // decodings, counting a chunk evicted and needed again
+    std::size_t cache_peak_bytes = 0;
     uint64_t bytes_read = 0;  // from the container, header and table included
-    int passes = 0;           // extraction passes (each after loading more chunks)
+    int passes = 0;           // refinement passes (1)
 };
-/// The LOD mesh of `query`, decoding only the chunks the refinement examines:
-/// starts from the three coarsest cycles, extracts, and loads every chunk
-/// holding a vertex of the mesh or the diamond of a tet the refinement stopped
-/// at (judged with an undecoded error), until there is none: the result equals
-/// the extraction from the fully decoded model. Safe on untrusted input.
+struct HtLazyOptions {
+    /// Budget of the decoded-chunk cache. Below what a query examines, chunks
+    /// are decoded again: same mesh, more time.
+    std::size_t cache_bytes = std::size_t{1024} << 20;
+};
+/// The LOD mesh of `query`, equal to the extraction from the fully decoded
+/// model, in one refinement pass that decodes on demand only the chunks
+/// holding the errors and values it examines (and the coarser chunks those
+/// are predicted from). Memory: the cache, plus tables sized by the output;
+/// nothing per grid point. Safe on untrusted input.
 Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery& query,
-                                  HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr);
+                                  HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr,
+                                  const HtLazyOptions& options = {});
 
 /// The original volume, bit-exact (padding removed), with its metadata restored.
 Expected<Volume> decode_volume(tlod::ContainerReader& reader,

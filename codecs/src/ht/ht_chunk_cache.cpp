@@ -1,0 +1,171 @@
+// Decoded HT chunks on demand, in a bounded cache.
+#include "ht_chunk_cache.hpp"
+
+#include <bit>
+#include <cstring>
+
+#include "ht_chunk_decoder.hpp"
+
+namespace tetlod::ht_detail {
+
+HtChunkCache::HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes)
+    : r_(reader),
+      L_(layout),
+      G_(geometry_of(layout.domain, layout.brick_log2)),
+      budget_(budget_bytes),
+      first_of_cycle_(std::size_t(G_.k + 1), 0),
+      slots_(layout.chunks.size()) {
+    for (std::size_t i = L_.chunks.size(); i-- > 0;) first_of_cycle_[std::size_t(L_.chunks[i].cycle)] = i;
+}
+
+std::size_t HtChunkCache::chunk_of(const ht::Pt& p, int* cycle) const {
+    int t = G_.k;
+    for (int a = 0; a < 3; ++a)
+        if (p[a] != 0) t = std::min(t, std::countr_zero(uint32_t(p[a])));
+    const auto n = G_.bricks(t);
+    int64_t bi[3];
+    for (int a = 0; a < 3; ++a) bi[a] = std::min<int64_t>(p[a] / G_.side(t), n[a] - 1);
+    if (cycle) *cycle = t;
+    return first_of_cycle_[std::size_t(t)] + std::size_t((bi[2] * n[1] + bi[1]) * n[0] + bi[0]);
+}
+
+std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
+    std::lock_guard<std::mutex> lock(mu_);
+    return get_locked(id);
+}
+
+ChunkCacheStats HtChunkCache::stats() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return stats_;
+}
+
+std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
+    Slot& s = slots_[id];
+    if (s.chunk) {
+        lru_.splice(lru_.begin(), lru_, s.lru);
+        return s.chunk;
+    }
+    auto c = decode(id);  // may recurse into coarser chunks (and evict others)
+    Slot& slot = slots_[id];
+    slot.chunk = c;
+    lru_.push_front(id);
+    slot.lru = lru_.begin();
+    bytes_ += c->bytes();
+    stats_.decodes += 1;
+    stats_.distinct += slot.seen ? 0 : 1;
+    slot.seen = true;
+    stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
+    evict_over_budget(id);
+    return c;
+}
+
+void HtChunkCache::evict_over_budget(std::size_t keep) {
+    // Oldest first; a chunk a reader still holds stays (the budget yields).
+    for (auto it = lru_.end(); bytes_ > budget_ && it != lru_.begin();) {
+        --it;
+        const std::size_t id = *it;
+        Slot& s = slots_[id];
+        if (id == keep || s.chunk.use_count() > 1) continue;
+        bytes_ -= s.chunk->bytes();
+        s.chunk.reset();
+        it = lru_.erase(it);
+    }
+}
+
+std::shared_ptr<const DecodedChunk> HtChunkCache::decode(std::size_t id) {
+    const HtChunk& c = L_.chunks[id];
+    const int t = c.cycle;
+    auto out = std::make_shared<DecodedChunk>();
+    int64_t n = 0;
+    out->window = window_for(G_, t, c.box, &n);
+    out->type = L_.metadata.type;
+    const std::size_t vs = value_size(out->type);
+    const Geometry& W = out->window;
+    out->field.assign(std::size_t(n) * vs, std::byte{0});
+    out->errors.assign(std::size_t(n), 0.0f);
+    const int64_t h = int64_t{1} << t;
+    // The window's extent in grid coordinates.
+    std::array<int64_t, 6> wb{};
+    const int64_t nz = W.nx > 0 && W.ny > 0 ? n / (W.nx * W.ny) : 0;
+    const int64_t wn[3] = {W.nx, W.ny, nz};
+    for (int a = 0; a < 3; ++a) {
+        wb[a] = W.origin[a];
+        wb[3 + a] = W.origin[a] + (wn[a] - 1) * h;
+    }
+    // Coarser points: copied from the chunks of cycles t+1..k meeting the window.
+    for (int tc = t + 1; tc <= G_.k; ++tc) {
+        const auto nb = G_.bricks(tc);
+        const int64_t side = G_.side(tc);
+        int64_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min<int64_t>(wb[a] / side, nb[a] - 1);
+            hi[a] = std::min<int64_t>(wb[3 + a] / side, nb[a] - 1);
+        }
+        for (int64_t bz = lo[2]; bz <= hi[2]; ++bz)
+            for (int64_t by = lo[1]; by <= hi[1]; ++by)
+                for (int64_t bx = lo[0]; bx <= hi[0]; ++bx) {
+                    const std::size_t did =
+                        first_of_cycle_[std::size_t(tc)] + std::size_t((bz * nb[1] + by) * nb[0] + bx);
+                    const HtChunk& d = L_.chunks[did];
+                    std::array<int64_t, 6> isect{};
+                    bool empty = false;
+                    for (int a = 0; a < 3; ++a) {
+                        isect[a] = std::max(d.box[a], wb[a]);
+                        isect[3 + a] = std::min(d.box[3 + a], wb[3 + a]);
+                        empty = empty || isect[a] > isect[3 + a];
+                    }
+                    if (empty || G_.count_points(tc, isect) == 0) continue;
+                    auto dep = get_locked(did);
+                    const Geometry& D = dep->window;
+                    const std::byte* src = dep->field.data();
+                    std::byte* dst = out->field.data();
+                    G_.for_each_point(tc, isect, [&](int64_t x, int64_t y, int64_t z) {
+                        std::memcpy(dst + std::size_t(W.index(x, y, z)) * vs,
+                                    src + std::size_t(D.index(x, y, z)) * vs, vs);
+                    });
+                }
+    }
+    auto fst = r_.read_stored(c.field_section);
+    if (!fst) raise(fst.failure());
+    auto est = r_.read_stored(c.error_section);
+    if (!est) raise(est.failure());
+    const Failure f = decode_chunk_sections(r_, L_, c, W, out->type, out->field.data(), out->errors.data(), *fst, *est);
+    if (f.code != ErrorCode::Ok) raise(f);
+    return out;
+}
+
+CachedSampleSource::CachedSampleSource(HtChunkCache& cache)
+    : cache_(cache), memo_(std::size_t(cache.layout().domain.k + 1)) {}
+
+const DecodedChunk& CachedSampleSource::at(const Point& p) {
+    int t = 0;
+    const std::size_t id = cache_.chunk_of(p, &t);
+    Memo& m = memo_[std::size_t(t)];
+    if (m.id != id) {
+        m.chunk.reset();  // let the cache evict it while we fetch
+        m.id = SIZE_MAX;
+        m.chunk = cache_.get(id);
+        m.id = id;
+    }
+    return *m.chunk;
+}
+
+float CachedSampleSource::error(const Point& p) {
+    const DecodedChunk& c = at(p);
+    return c.errors[std::size_t(c.window.index(p[0], p[1], p[2]))];
+}
+
+double CachedSampleSource::value(const Point& p) {
+    const DecodedChunk& c = at(p);
+    const std::size_t i = std::size_t(c.window.index(p[0], p[1], p[2]));
+    return dispatch_value_type(c.type, [&](auto tag) {
+        using T = decltype(tag);
+        T v;
+        std::memcpy(&v, c.field.data() + i * sizeof(T), sizeof(T));
+        return double(v);
+    });
+}
+
+std::unique_ptr<HtSampleSource> CachedSampleSource::fork() { return std::make_unique<CachedSampleSource>(cache_); }
+
+}  // namespace tetlod::ht_detail

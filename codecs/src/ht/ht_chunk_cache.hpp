@@ -1,0 +1,97 @@
+#pragma once
+// Decoded HT chunks on demand, in a bounded cache (the lazy extraction's data).
+//
+// A chunk is decoded on its own, in its window (window_for): the lattice of its
+// cycle over its box grown by the predictor reach. Its coarser points are
+// copied from the chunks holding them, fetched (and, when absent, decoded) the
+// same way, so a chunk costs its own sections plus whatever coarser chunks are
+// not cached already. Nothing is allocated per grid point of the volume.
+//
+// The cache keeps the most recently used chunks within a byte budget. Chunks
+// in use (held by a reader) are never evicted, so the budget may be exceeded
+// by what is in use; below the working set of a query, chunks are decoded
+// again (same results, more time).
+#include <cstddef>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "ht_chunk_geometry.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/models/ht/ht_sample_source.hpp"
+
+namespace tetlod::ht_detail {
+
+/// One chunk decoded in its window.
+struct DecodedChunk {
+    Geometry window;
+    ValueType type = ValueType::U8;
+    std::vector<std::byte> field;  // window points x value size
+    std::vector<float> errors;     // per window point (valid at the chunk's own diamonds)
+    std::size_t bytes() const { return field.capacity() + errors.capacity() * sizeof(float) + sizeof(*this); }
+};
+
+struct ChunkCacheStats {
+    uint64_t decodes = 0;       // chunk decodings (a chunk evicted and needed again counts again)
+    uint64_t distinct = 0;      // chunks decoded at least once
+    std::size_t peak_bytes = 0; // largest cache content
+};
+
+class HtChunkCache {
+public:
+    /// `reader` and `layout` must outlive the cache.
+    HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes);
+
+    /// Index (file order) of the chunk holding grid point p of B, and its cycle.
+    std::size_t chunk_of(const ht::Pt& p, int* cycle = nullptr) const;
+    /// The decoded chunk `id`, decoding it when absent. Throws tetlod::Error
+    /// (CorruptData, naming the container and section) on a bad chunk.
+    std::shared_ptr<const DecodedChunk> get(std::size_t id);
+
+    ChunkCacheStats stats() const;
+    const HtLayout& layout() const { return L_; }
+
+private:
+    std::shared_ptr<const DecodedChunk> get_locked(std::size_t id);
+    std::shared_ptr<const DecodedChunk> decode(std::size_t id);
+    void evict_over_budget(std::size_t keep);
+
+    tlod::ContainerReader& r_;
+    const HtLayout& L_;
+    const Geometry G_;
+    const std::size_t budget_;
+    std::vector<std::size_t> first_of_cycle_;
+    mutable std::mutex mu_;
+    struct Slot {
+        std::shared_ptr<const DecodedChunk> chunk;
+        std::list<std::size_t>::iterator lru;
+        bool seen = false;
+    };
+    std::vector<Slot> slots_;
+    std::list<std::size_t> lru_;  // most recent first
+    std::size_t bytes_ = 0;
+    ChunkCacheStats stats_;
+};
+
+/// HtSampleSource over a chunk cache: remembers the last chunk per cycle, so
+/// the refinement's neighbouring reads rarely take the cache's lock.
+class CachedSampleSource final : public HtSampleSource {
+public:
+    explicit CachedSampleSource(HtChunkCache& cache);
+    float error(const Point& p) override;
+    double value(const Point& p) override;
+    std::unique_ptr<HtSampleSource> fork() override;
+
+private:
+    const DecodedChunk& at(const Point& p);
+    HtChunkCache& cache_;
+    struct Memo {
+        std::size_t id = SIZE_MAX;
+        std::shared_ptr<const DecodedChunk> chunk;
+    };
+    std::vector<Memo> memo_;  // per cycle
+};
+
+}  // namespace tetlod::ht_detail

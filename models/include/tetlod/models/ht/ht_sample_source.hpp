@@ -1,0 +1,39 @@
+#pragma once
+// Selective refinement of an HT whose data is not in memory: the refinement
+// asks a sample source for the diamond errors and field values it examines,
+// and nothing else. A container reader that decodes chunks on demand is one
+// (codecs/ht: extract_ht_lazy); the in-memory HtModel reads its own arrays.
+//
+// Cost: the refinement keeps its split set and vertex numbering in hash tables
+// sized by the output, never by the grid, so a query costs what it examines.
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/lod_query.hpp"
+
+namespace tetlod {
+
+class HtSampleSource {
+public:
+    using Point = std::array<int32_t, 3>;
+    virtual ~HtSampleSource() = default;
+    /// Error of the diamond centred at p (p in B, a diamond centre): as
+    /// HtModel::diamond_errors() holds it. May throw tetlod::Error (corrupt data).
+    virtual float error(const Point& p) = 0;
+    /// Field value at p (p in B).
+    virtual double value(const Point& p) = 0;
+    /// A source for another thread, reading the same data. The parallel emit
+    /// phase uses one per task; the refinement phase uses this one only.
+    virtual std::unique_ptr<HtSampleSource> fork() = 0;
+};
+
+/// The mesh HtModel::extract would give for a model with this domain and
+/// data, with points, tets, level, error and values filled (geometry, field
+/// name and value type are left to the caller). Throws what the source throws.
+TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery& query,
+                  HtExtractStats* stats = nullptr);
+
+}  // namespace tetlod
