@@ -21,6 +21,7 @@ struct ExtractArgs {
     std::string compress = "zlib";
     double max_shape_ratio = 0;
     int compress_level = 0;
+    uint64_t cache_mb = 1024;
     VolumeFlags volume;
 };
 
@@ -28,6 +29,12 @@ MeshWriteOptions mesh_write_options(const ExtractArgs& a) {
     MeshWriteOptions o;
     o.compression = a.no_compress ? MeshCompression::None : *parse_mesh_compression(a.compress);
     o.compression_level = a.compress_level;
+    return o;
+}
+
+ContainerExtractOptions extract_options(const ExtractArgs& a) {
+    ContainerExtractOptions o;
+    o.cache_bytes = std::size_t(a.cache_mb) << 20;
     return o;
 }
 
@@ -40,7 +47,8 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
                                [&](LodQuery& q, const std::array<double, 2>& range) {
                                    q.error_in = error_in.resolve(range);
                                    q.error_out = error_out.resolve(range);
-                               })
+                               },
+                               extract_options(a))
             .take();
     MeshWriteOptions wo;
     wo = mesh_write_options(a);
@@ -58,8 +66,9 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
         o << "mesh     " << x.mesh.tet_count() << " tets, " << x.mesh.vertex_count()
           << " vertices, largest error " << format_error(x.max_error, x.range) << "\n";
         o << "read     " << format_bytes(x.bytes_read) << " of " << format_bytes(x.file_size) << ", "
-          << x.chunks_decoded << " of " << x.chunks_total << " chunks, " << x.passes << " passes, "
-          << format_seconds(x.seconds) << "\n";
+          << x.chunks_decoded << " of " << x.chunks_total << " chunks";
+        if (x.chunk_decodes > x.chunks_decoded) o << " (" << x.chunk_decodes << " decodings: raise --cache-mb)";
+        o << ", cache " << format_bytes(x.cache_peak_bytes) << ", " << format_seconds(x.seconds) << "\n";
     }
     o << "wrote    " << a.output << "\n";
     return 0;
@@ -166,6 +175,12 @@ const CommandRegistration registration{Command{
             ->check(CLI::Range(0, 9));
         sub.add_flag("--no-compress", a->no_compress, "Store .vtu arrays uncompressed (= --compress none)")
             ->group(model);
+        sub.add_option("--cache-mb", a->cache_mb,
+                       "From a .tlod (HT): memory for decoded chunks, in MiB. A query examining more "
+                       "decodes chunks again (same mesh, slower)")
+            ->group(model)
+            ->capture_default_str()
+            ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 30));
         sub.footer(
             "Examples:\n"
             "  tetlod extract bucky_32x32x32_uint8.raw bucky.vtu --error 1%\n"

@@ -48,7 +48,8 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
 }  // namespace
 
 Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model, LodQuery query,
-                                                  const ThresholdResolver& resolve) {
+                                                  const ThresholdResolver& resolve,
+                                                  const ContainerExtractOptions& options) {
     Stopwatch clock;
     auto r = tlod::ContainerReader::open(path);
     if (!r) return r.failure();
@@ -58,7 +59,9 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
     ContainerExtract x = described(ModelKind::Ht, layout->metadata, query, resolve);
     HtExtractStats stats;
     HtLazyStats lazy;
-    auto mesh = extract_ht_lazy(*r, query, &stats, &lazy);
+    HtLazyOptions lo;
+    lo.cache_bytes = options.cache_bytes;
+    auto mesh = extract_ht_lazy(*r, query, &stats, &lazy, lo);
     if (!mesh) return mesh.failure();
     x.mesh = std::move(*mesh);
     x.seconds = clock.seconds();
@@ -67,6 +70,8 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
     x.chunks_decoded = lazy.chunks_decoded;
     x.chunks_total = lazy.chunks_total;
     x.passes = lazy.passes;
+    x.chunk_decodes = lazy.chunk_decodes;
+    x.cache_peak_bytes = lazy.cache_peak_bytes;
     std::error_code ec;
     x.file_size = std::filesystem::file_size(path, ec);
     return x;

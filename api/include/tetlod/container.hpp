@@ -135,17 +135,27 @@ struct ContainerExtract {
     double max_error = 0;
     uint64_t bytes_read = 0, file_size = 0;
     uint64_t chunks_decoded = 0, chunks_total = 0, passes = 0;
+    uint64_t chunk_decodes = 0;      // decodings (a chunk evicted and needed again counts again)
+    std::size_t cache_peak_bytes = 0; // largest content of the decoded-chunk cache
     // MT: vertex splits of the model, and where its field came from.
     uint64_t mt_updates = 0;
     bool mt_field_from_ht = false;
 };
 
-/// The mesh of `query` from the container's `model`: the HT lazily (only the
-/// chunks the query examines are read and decoded), the MT decoded whole.
+struct ContainerExtractOptions {
+    /// HT: budget of the decoded-chunk cache (a query examining more decodes
+    /// chunks again: same mesh, more time).
+    std::size_t cache_bytes = std::size_t{1024} << 20;
+};
+
+/// The mesh of `query` from the container's `model`: the HT lazily (one
+/// refinement pass decoding only the chunks the query examines, through a
+/// bounded cache; nothing per grid point), the MT decoded whole.
 /// `resolve` (optional) fills the thresholds from the value range first.
 Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model,
                                                   LodQuery query,
-                                                  const ThresholdResolver& resolve = {});
+                                                  const ThresholdResolver& resolve = {},
+                                                  const ContainerExtractOptions& options = {});
 
 // ---- decoding ----
 

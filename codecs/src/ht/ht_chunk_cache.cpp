@@ -31,7 +31,13 @@ std::size_t HtChunkCache::chunk_of(const ht::Pt& p, int* cycle) const {
 
 std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
     std::lock_guard<std::mutex> lock(mu_);
-    return get_locked(id);
+    auto c = get_locked(id);
+    // The chunks this decoding fetched stayed pinned so that none was decoded
+    // twice for it (with a tiny budget, re-fetching coarser chunks for every
+    // dependency would cost exponentially in the number of cycles).
+    pinned_.clear();
+    evict_over_budget(id);
+    return c;
 }
 
 ChunkCacheStats HtChunkCache::stats() const {
@@ -43,9 +49,20 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
     Slot& s = slots_[id];
     if (s.chunk) {
         lru_.splice(lru_.begin(), lru_, s.lru);
+        if (depth_ > 0) pinned_.push_back(s.chunk);
         return s.chunk;
     }
-    auto c = decode(id);  // may recurse into coarser chunks (and evict others)
+    ++depth_;
+    std::shared_ptr<const DecodedChunk> c;
+    try {
+        c = decode(id);  // fetches coarser chunks (pinned until the outermost get returns)
+    } catch (...) {
+        --depth_;
+        if (depth_ == 0) pinned_.clear();
+        throw;
+    }
+    --depth_;
+    if (depth_ > 0) pinned_.push_back(c);
     Slot& slot = slots_[id];
     slot.chunk = c;
     lru_.push_front(id);
@@ -55,7 +72,6 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
     stats_.distinct += slot.seen ? 0 : 1;
     slot.seen = true;
     stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
-    evict_over_budget(id);
     return c;
 }
 

@@ -8,9 +8,10 @@
 // not cached already. Nothing is allocated per grid point of the volume.
 //
 // The cache keeps the most recently used chunks within a byte budget. Chunks
-// in use (held by a reader) are never evicted, so the budget may be exceeded
-// by what is in use; below the working set of a query, chunks are decoded
-// again (same results, more time).
+// in use (held by a reader, or fetched by the decoding in progress: at most a
+// few per cycle) are never evicted, so the budget may be exceeded by what is
+// in use; below the working set of a query, chunks are decoded again (same
+// results, more time).
 #include <cstddef>
 #include <cstdint>
 #include <list>
@@ -72,6 +73,8 @@ private:
     std::vector<Slot> slots_;
     std::list<std::size_t> lru_;  // most recent first
     std::size_t bytes_ = 0;
+    int depth_ = 0;  // nesting of decodings in progress
+    std::vector<std::shared_ptr<const DecodedChunk>> pinned_;  // fetched by the decoding in progress
     ChunkCacheStats stats_;
 };
 
