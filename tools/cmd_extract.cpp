@@ -42,28 +42,27 @@ ContainerExtractOptions extract_options(const ExtractArgs& a) {
 int run_extract_container(const ExtractArgs& a, ModelKind model) {
     const auto error_in = a.lod.error_in();
     const auto error_out = a.lod.error_out_threshold();
+    // The mesh streams into the writer (memory does not grow with the tets).
+    const auto sink = open_mesh_stream(a.output, a.format, mesh_write_options(a));
     const ContainerExtract x =
-        extract_from_container(a.input, model, a.lod.region_query(nullptr),
-                               [&](LodQuery& q, const std::array<double, 2>& range) {
-                                   q.error_in = error_in.resolve(range);
-                                   q.error_out = error_out.resolve(range);
-                               },
-                               extract_options(a))
+        extract_from_container_to(a.input, model, a.lod.region_query(nullptr), *sink,
+                                  [&](LodQuery& q, const std::array<double, 2>& range) {
+                                      q.error_in = error_in.resolve(range);
+                                      q.error_out = error_out.resolve(range);
+                                  },
+                                  extract_options(a))
             .take();
-    MeshWriteOptions wo;
-    wo = mesh_write_options(a);
-    write_tet_mesh(x.mesh, a.output, a.format, wo);
     auto& o = out();
     if (model == ModelKind::Mt) {
         o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, MT: " << x.mt_updates << " vertex splits, field "
           << (x.mt_field_from_ht ? "from the HT" : "in the MT") << ")\n";
-        o << "mesh     " << x.mesh.tet_count() << " tets, " << x.mesh.vertex_count() << " vertices, "
+        o << "mesh     " << x.tet_count << " tets, " << x.vertex_count << " vertices, "
           << format_seconds(x.seconds) << "\n";
     } else {
         o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, lazy)\n";
-        o << "mesh     " << x.mesh.tet_count() << " tets, " << x.mesh.vertex_count()
+        o << "mesh     " << x.tet_count << " tets, " << x.vertex_count
           << " vertices, largest error " << format_error(x.max_error, x.range) << "\n";
         o << "read     " << format_bytes(x.bytes_read) << " of " << format_bytes(x.file_size) << ", "
           << x.chunks_decoded << " of " << x.chunks_total << " chunks";
@@ -99,8 +98,11 @@ int run_extract(const ExtractArgs& a) {
     query.error_in = error_in.resolve(range);
     query.error_out = error_out.resolve(range);
     LodExtractStats stats;
+    // The mesh streams into the writer: extraction and writing are one step.
     Stopwatch extract_clock;
-    const TetMesh mesh = model.extract(query, &stats);
+    const auto sink = open_mesh_stream(a.output, a.format, mesh_write_options(a));
+    TetMeshCounter counted(*sink);
+    model.extract_to(query, counted, &stats);
     const double extract_seconds = extract_clock.seconds();
     const double max_error = stats.max_error;
     const std::string model_detail =
@@ -112,20 +114,14 @@ int run_extract(const ExtractArgs& a) {
                  ", " + std::to_string(stats.splits) + " diamonds split, " +
                  std::to_string(stats.visited_tets) + " tets visited";
 
-    MeshWriteOptions write_options;
-    write_options = mesh_write_options(a);
-    Stopwatch write_clock;
-    write_tet_mesh(mesh, a.output, a.format, write_options);
-    const double write_seconds = write_clock.seconds();
-
     auto& o = out();
     o << "input    " << a.input << ": " << format_dims(dims) << " " << type_name << ", values "
       << format_number(range[0]) << ".." << format_number(range[1]) << "\n";
     o << "query    " << a.lod.describe(query, range) << "\n";
-    o << "mesh     " << mesh.tet_count() << " tets, " << mesh.vertex_count()
+    o << "mesh     " << counted.tets << " tets, " << counted.vertices
       << " vertices, largest error " << format_error(max_error, range) << "\n";
-    o << "time     build " << format_seconds(build_seconds) << ", extract "
-      << format_seconds(extract_seconds) << ", write " << format_seconds(write_seconds) << "\n";
+    o << "time     build " << format_seconds(build_seconds) << ", extract + write "
+      << format_seconds(extract_seconds) << "\n";
     std::error_code ec;
     const auto size = std::filesystem::file_size(a.output, ec);
     o << "wrote    " << a.output << " (" << (ec ? std::string("?") : format_bytes(size)) << ")\n";

@@ -27,7 +27,7 @@ ContainerExtract described(ModelKind model, const tlod::Metadata& meta, LodQuery
 }
 
 Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerReader& r, LodQuery query,
-                                      const ThresholdResolver& resolve, const Stopwatch& clock) {
+                                      const ThresholdResolver& resolve, const Stopwatch& clock, TetMeshSink* sink) {
     if (!container_has_mt(r))
         return fail(ErrorCode::NotFound, "'" + path + "': --model mt: the container holds no MT "
                                          "(write one with `tetlod convert IN OUT.tlod --model ht,mt`)");
@@ -38,22 +38,27 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
     ContainerExtract x = described(ModelKind::Mt, layout->metadata, query, resolve);
     auto mesh = capture([&] { return model->extract(query); });  // CorruptData on an inconsistent MT
     if (!mesh) return mesh.failure();
-    x.mesh = std::move(*mesh);
+    x.tet_count = mesh->tets.size();
+    x.vertex_count = mesh->points.size();
+    if (sink) {
+        auto sent = capture([&] { send_mesh(*mesh, *sink); });
+        if (!sent) return sent.failure();
+    } else {
+        x.mesh = std::move(*mesh);
+    }
     x.seconds = clock.seconds();
     x.mt_updates = model->updates().size();
     x.mt_field_from_ht = layout->with_ht;
     return x;
 }
 
-}  // namespace
-
-Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model, LodQuery query,
-                                                  const ThresholdResolver& resolve,
-                                                  const ContainerExtractOptions& options) {
+Expected<ContainerExtract> extract(const std::string& path, ModelKind model, LodQuery query,
+                                   const ThresholdResolver& resolve, const ContainerExtractOptions& options,
+                                   TetMeshSink* sink) {
     Stopwatch clock;
     auto r = tlod::ContainerReader::open(path);
     if (!r) return r.failure();
-    if (model == ModelKind::Mt) return extract_mt(path, *r, std::move(query), resolve, clock);
+    if (model == ModelKind::Mt) return extract_mt(path, *r, std::move(query), resolve, clock, sink);
     auto layout = read_ht_layout(*r);
     if (!layout) return layout.failure();
     ContainerExtract x = described(ModelKind::Ht, layout->metadata, query, resolve);
@@ -61,9 +66,19 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
     HtLazyStats lazy;
     HtLazyOptions lo;
     lo.cache_bytes = options.cache_bytes;
-    auto mesh = extract_ht_lazy(*r, query, &stats, &lazy, lo);
-    if (!mesh) return mesh.failure();
-    x.mesh = std::move(*mesh);
+    if (sink) {
+        TetMeshCounter counted(*sink);
+        auto done = extract_ht_lazy_to(*r, query, counted, &stats, &lazy, lo);
+        if (!done) return done.failure();
+        x.tet_count = counted.tets;
+        x.vertex_count = counted.vertices;
+    } else {
+        auto mesh = extract_ht_lazy(*r, query, &stats, &lazy, lo);
+        if (!mesh) return mesh.failure();
+        x.mesh = std::move(*mesh);
+        x.tet_count = x.mesh.tets.size();
+        x.vertex_count = x.mesh.points.size();
+    }
     x.seconds = clock.seconds();
     x.max_error = stats.max_error;
     x.bytes_read = lazy.bytes_read;
@@ -75,6 +90,20 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
     std::error_code ec;
     x.file_size = std::filesystem::file_size(path, ec);
     return x;
+}
+
+}  // namespace
+
+Expected<ContainerExtract> extract_from_container(const std::string& path, ModelKind model, LodQuery query,
+                                                  const ThresholdResolver& resolve,
+                                                  const ContainerExtractOptions& options) {
+    return extract(path, model, std::move(query), resolve, options, nullptr);
+}
+
+Expected<ContainerExtract> extract_from_container_to(const std::string& path, ModelKind model, LodQuery query,
+                                                     TetMeshSink& sink, const ThresholdResolver& resolve,
+                                                     const ContainerExtractOptions& options) {
+    return extract(path, model, std::move(query), resolve, options, &sink);
 }
 
 }  // namespace tetlod

@@ -59,4 +59,20 @@ void validate(const TetMesh& mesh, const std::string& context, const TetMeshChec
     if (!problem.empty()) throw Error(ErrorCode::InvalidArgument, context + ": " + problem);
 }
 
+void validate_vertices(const TetMesh& v, const std::string& context) {
+    if (v.values.size() != v.points.size())
+        throw Error(ErrorCode::InvalidArgument, context + ": " + std::to_string(v.values.size()) + " values for " +
+                                                    std::to_string(v.points.size()) + " points");
+}
+
+void check_tets(std::span<const std::array<uint32_t, 4>> tets, std::size_t points, const std::string& context,
+                uint64_t first) {
+    for (std::size_t t = 0; t < tets.size(); ++t)
+        for (uint32_t v : tets[t])
+            if (v >= points)
+                throw Error(ErrorCode::InvalidArgument, context + ": tet " + std::to_string(first + t) +
+                                                            " uses vertex " + std::to_string(v) + " of " +
+                                                            std::to_string(points) + " points");
+}
+
 }  // namespace tetlod

@@ -29,6 +29,16 @@ TetMesh LodModel::extract(const LodQuery& q, LodExtractStats* stats) const {
     return mesh;
 }
 
+void LodModel::extract_to(const LodQuery& q, TetMeshSink& sink, LodExtractStats* stats) const {
+    if (kind == ModelKind::Ht) {
+        HtExtractStats s;
+        ht->extract_to(q, sink, &s);
+        if (stats) *stats = {s.max_error, uint64_t(s.visited_tets), uint64_t(s.split_diamonds), 0};
+        return;
+    }
+    send_mesh(extract(q, stats), sink);
+}
+
 TriangleMesh LodModel::isosurface(const LodQuery& query, std::span<const double> isovalues) const {
     return marching_tetrahedra(extract(query), isovalues);
 }

@@ -111,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(Awkward, LazyExtractCases,
                                            Case{{18, 2, 7}, ValueType::I8, 1, false},
                                            Case{{17, 17, 17}, ValueType::F32, 1, false},
                                            Case{{40, 9, 23}, ValueType::F64, 1, false},
-                                           Case{{21, 13, 6}, ValueType::I32, 2, true},
+                                           Case{{21, 13, 6}, ValueType::I32, 3, true},
                                            Case{{65, 3, 5}, ValueType::U8, 2, false}));
 
 TEST(LazyExtract, SpecTestVectorsOfEveryVersion) {

@@ -20,6 +20,7 @@
 
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/volume.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
@@ -130,6 +131,7 @@ struct ContainerExtract {
     ValueType type = ValueType::U8;
     std::array<double, 2> range{0, 0};
     LodQuery query;            // as resolved
+    uint64_t tet_count = 0, vertex_count = 0;  // of the mesh (also when streamed)
     double seconds = 0;        // open + read + extract
     // HT (lazy): the largest error of the mesh, what was read.
     double max_error = 0;
@@ -156,6 +158,12 @@ Expected<ContainerExtract> extract_from_container(const std::string& path, Model
                                                   LodQuery query,
                                                   const ThresholdResolver& resolve = {},
                                                   const ContainerExtractOptions& options = {});
+/// The same, handing the mesh to `sink` in parts (the HT streams: memory does
+/// not grow with the tets; the MT is extracted whole, then handed over). The
+/// result's mesh stays empty; tet_count and vertex_count say what was sent.
+Expected<ContainerExtract> extract_from_container_to(const std::string& path, ModelKind model, LodQuery query,
+                                                     TetMeshSink& sink, const ThresholdResolver& resolve = {},
+                                                     const ContainerExtractOptions& options = {});
 
 // ---- decoding ----
 

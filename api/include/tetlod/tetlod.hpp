@@ -17,6 +17,7 @@
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/output_policy.hpp"
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/tet_mesh_validation.hpp"
 #include "tetlod/core/triangle_mesh.hpp"
 #include "tetlod/core/utf8.hpp"

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/output_policy.hpp"
 
 namespace tetlod {
 
@@ -24,8 +25,9 @@ std::vector<std::string> mesh_format_names() {
     return names;
 }
 
-void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format,
-                    const MeshWriteOptions& options) {
+namespace {
+
+const MeshFormat& choose_format(const std::string& path, const std::string& format) {
     const MeshFormat* f = nullptr;
     if (!format.empty()) {
         f = find_mesh_format(format);
@@ -47,7 +49,52 @@ void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::str
     }
     if (!f->built)
         throw Error(ErrorCode::NotBuilt, "'" + path + "': this tetlod was built without the " + f->name + " writer");
-    f->write(mesh, path, options);
+    return *f;
+}
+
+/// A format without a streaming writer: the parts are gathered, then written.
+class GatheringSink final : public TetMeshSink {
+public:
+    GatheringSink(const MeshFormat& f, std::string path, MeshWriteOptions o)
+        : f_(f), path_(std::move(path)), o_(o) {
+        check_output(path_);  // refuse before any work, as the streaming writers do
+    }
+    void begin(const TetMesh& v, uint64_t n) override {
+        announced_ = n;
+        collect_.begin(v, n);
+    }
+    void add(std::span<const std::array<uint32_t, 4>> t, std::span<const uint8_t> l,
+             std::span<const float> e) override {
+        collect_.add(t, l, e);
+    }
+    void finish() override {
+        if (collect_.mesh.tets.size() != announced_)
+            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " +
+                                                        std::to_string(collect_.mesh.tets.size()) + " tets came, " +
+                                                        std::to_string(announced_) + " were announced");
+        f_.write(collect_.mesh, path_, o_);
+    }
+
+private:
+    const MeshFormat& f_;
+    std::string path_;
+    MeshWriteOptions o_;
+    TetMeshCollector collect_;
+    uint64_t announced_ = 0;
+};
+
+}  // namespace
+
+void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format,
+                    const MeshWriteOptions& options) {
+    choose_format(path, format).write(mesh, path, options);
+}
+
+std::unique_ptr<TetMeshSink> open_mesh_stream(const std::string& path, const std::string& format,
+                                              const MeshWriteOptions& options) {
+    const MeshFormat& f = choose_format(path, format);
+    if (f.open_stream) return f.open_stream(path, options);
+    return std::make_unique<GatheringSink>(f, path, options);
 }
 
 std::vector<std::string> mesh_companion_files(const std::string& path) {

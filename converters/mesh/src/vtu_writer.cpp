@@ -18,6 +18,8 @@
 #include <functional>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <span>
 #include <sstream>
 #include <vector>
 
@@ -25,16 +27,13 @@
 #include "tetlod/converters/vtk_writers.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/spill_file.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
 
 namespace {
-
-struct Array {
-    std::string xml_attributes;      // type, Name, NumberOfComponents
-    std::vector<std::byte> encoded;  // header + payload, as it goes in the file
-};
 
 template <class T>
 void append(std::vector<std::byte>& out, const T& v) {
@@ -91,51 +90,92 @@ std::size_t compress_block(MeshCompression c, int level, const std::byte* in, st
     return 0;
 }
 
-std::vector<std::byte> encode(const std::vector<std::byte>& raw, const VtuWriteOptions& opt,
-                              const std::string& path) {
-    std::vector<std::byte> out;
-    if (opt.compression == MeshCompression::None) {
-        append<uint64_t>(out, raw.size());
-        out.resize(sizeof(uint64_t) + raw.size());
-        if (!raw.empty()) std::memcpy(out.data() + sizeof(uint64_t), raw.data(), raw.size());
-        return out;
-    }
-    const int level = opt.compression_level ? opt.compression_level : default_level(opt.compression);
-    const std::size_t bs = opt.block_size;
-    const uint64_t nblocks = (raw.size() + bs - 1) / bs;
-    const uint64_t last = raw.size() % bs;
-    // Blocks are independent: compress them in parallel into slots of the
-    // bound's size, then pack them in order (the same bytes for any thread count).
-    const std::size_t cap = block_bound(opt.compression, bs);
-    std::vector<std::byte> slots(std::size_t(nblocks) * cap);
-    std::vector<uint64_t> sizes(std::size_t(nblocks), 0);
-    tbb::parallel_for(uint64_t{0}, nblocks, [&](uint64_t b) {
-        const std::size_t begin = std::size_t(b) * bs;
-        const std::size_t n = std::min(bs, raw.size() - begin);
-        sizes[b] = compress_block(opt.compression, level, raw.data() + begin, n, slots.data() + b * cap, cap);
-    });
-    for (uint64_t size : sizes)
-        if (size == 0)
-            throw Error(ErrorCode::IoError, "cannot write '" + path + "': " + mesh_compression_name(opt.compression) +
-                                                " compression failed");
-    append<uint64_t>(out, nblocks);
-    append<uint64_t>(out, bs);
-    append<uint64_t>(out, last);
-    for (uint64_t size : sizes) append<uint64_t>(out, size);
-    for (uint64_t b = 0; b < nblocks; ++b) {
-        const std::size_t at = out.size();
-        out.resize(at + sizes[b]);
-        std::memcpy(out.data() + at, slots.data() + b * cap, sizes[b]);
-    }
-    return out;
-}
+/// One DataArray of the appended section, encoded as its bytes arrive: raw
+/// bytes gather into a batch of blocks, each batch is compressed in parallel
+/// (blocks independently, so the bytes do not depend on the thread count) and
+/// spilled to a temporary file; memory holds one batch and the block sizes.
+class StreamArray {
+public:
+    StreamArray(std::string attrs, const std::string& path, const VtuWriteOptions& opt)
+        : attrs_(std::move(attrs)), path_(path), opt_(opt), spill_(path),
+          level_(opt.compression_level ? opt.compression_level : default_level(opt.compression)) {}
 
-template <class T>
-std::vector<std::byte> bytes_of(const std::vector<T>& v) {
-    std::vector<std::byte> out(v.size() * sizeof(T));
-    if (!v.empty()) std::memcpy(out.data(), v.data(), out.size());
-    return out;
-}
+    const std::string& attributes() const { return attrs_; }
+
+    void push(const void* data, std::size_t n) {
+        const auto* p = static_cast<const std::byte*>(data);
+        raw_bytes_ += n;
+        if (opt_.compression == MeshCompression::None) {
+            spill_.write(p, n);
+            return;
+        }
+        while (n > 0) {
+            const std::size_t take = std::min(n, batch_bytes() - pending_.size());
+            pending_.insert(pending_.end(), p, p + take);
+            p += take;
+            n -= take;
+            if (pending_.size() == batch_bytes()) compress_pending();
+        }
+    }
+    template <class T> void push_values(std::span<const T> v) { push(v.data(), v.size_bytes()); }
+
+    /// Compresses what remains; call once, before encoded_size / write_to.
+    void close() {
+        if (opt_.compression != MeshCompression::None && !pending_.empty()) compress_pending();
+    }
+    /// Bytes of the array in the file (header included).
+    uint64_t encoded_size() const {
+        if (opt_.compression == MeshCompression::None) return 8 + raw_bytes_;
+        return 8 * (3 + sizes_.size()) + spill_.size();
+    }
+    void write_to(AtomicFile& out) {
+        std::vector<std::byte> header;
+        if (opt_.compression == MeshCompression::None) {
+            append<uint64_t>(header, raw_bytes_);
+        } else {
+            append<uint64_t>(header, sizes_.size());
+            append<uint64_t>(header, opt_.block_size);
+            append<uint64_t>(header, raw_bytes_ % opt_.block_size);
+            for (uint64_t size : sizes_) append<uint64_t>(header, size);
+        }
+        out.write(header.data(), header.size());
+        spill_.copy_to(out);
+    }
+
+private:
+    std::size_t batch_bytes() const { return opt_.block_size * kBlocksPerBatch; }
+
+    void compress_pending() {
+        const std::size_t bs = opt_.block_size;
+        const std::size_t nblocks = (pending_.size() + bs - 1) / bs;
+        const std::size_t cap = block_bound(opt_.compression, bs);
+        slots_.resize(nblocks * cap);
+        std::vector<uint64_t> sizes(nblocks, 0);
+        tbb::parallel_for(std::size_t{0}, nblocks, [&](std::size_t b) {
+            const std::size_t begin = b * bs;
+            const std::size_t n = std::min(bs, pending_.size() - begin);
+            sizes[b] = compress_block(opt_.compression, level_, pending_.data() + begin, n, slots_.data() + b * cap, cap);
+        });
+        for (std::size_t b = 0; b < nblocks; ++b) {
+            if (sizes[b] == 0)
+                throw Error(ErrorCode::IoError, "cannot write '" + path_ + "': " +
+                                                    mesh_compression_name(opt_.compression) + " compression failed");
+            spill_.write(slots_.data() + b * cap, sizes[b]);
+            sizes_.push_back(sizes[b]);
+        }
+        pending_.clear();
+    }
+
+    static constexpr std::size_t kBlocksPerBatch = 64;
+    std::string attrs_;
+    std::string path_;
+    VtuWriteOptions opt_;
+    SpillFile spill_;
+    int level_;
+    std::vector<std::byte> pending_, slots_;
+    std::vector<uint64_t> sizes_;
+    uint64_t raw_bytes_ = 0;
+};
 
 std::string xml_escape(const std::string& s) {
     std::string r;
@@ -174,17 +214,6 @@ std::string compressor_attribute(MeshCompression c) {
     return "";
 }
 
-// The values in the mesh's own sample type (exact: they came from it).
-template <class T>
-std::vector<std::byte> values_as(const std::vector<double>& values) {
-    std::vector<std::byte> out(values.size() * sizeof(T));
-    for (std::size_t i = 0; i < values.size(); ++i) {
-        const T v = static_cast<T>(values[i]);
-        std::memcpy(out.data() + i * sizeof(T), &v, sizeof(T));
-    }
-    return out;
-}
-
 const char* vtk_type_name(ValueType t) {
     switch (t) {
         case ValueType::U8: return "UInt8";
@@ -199,19 +228,148 @@ const char* vtk_type_name(ValueType t) {
     return "Float64";
 }
 
-// Connectivity and offsets: Int32 when every id fits (half the bytes), else Int64.
-template <class I>
-void add_cells(std::vector<Array>& cells, const TetMesh& mesh, const char* type,
-               const std::function<Array(std::string, const std::vector<std::byte>&)>& make) {
-    const std::size_t nt = mesh.tets.size();
-    std::vector<I> connectivity(4 * nt), offsets(nt);
-    for (std::size_t i = 0; i < nt; ++i) {
-        for (int k = 0; k < 4; ++k) connectivity[4 * i + k] = static_cast<I>(mesh.tets[i][k]);
-        offsets[i] = static_cast<I>(4 * (i + 1));
+/// The streaming .vtu writer. Arrays go to the appended section in this order:
+/// point data, cell data, points, cells (the XML lists each with its offset,
+/// known once every array is encoded, so the file is assembled in finish()).
+class VtuSink final : public TetMeshSink {
+public:
+    VtuSink(const std::string& path, const VtuWriteOptions& options) : path_(path), opt_(options), out_(path) {
+        if (options.compression != MeshCompression::None &&
+            (options.block_size == 0 || options.block_size > (1u << 30) || options.compression_level < 0 ||
+             options.compression_level > 9))
+            throw Error(ErrorCode::InvalidArgument,
+                        "cannot write '" + path + "': block size must be in 1..2^30 and the level in 0..9");
     }
-    cells.push_back(make(std::string("type=\"") + type + "\" Name=\"connectivity\"", bytes_of(connectivity)));
-    cells.push_back(make(std::string("type=\"") + type + "\" Name=\"offsets\"", bytes_of(offsets)));
-}
+
+    void begin(const TetMesh& v, uint64_t tet_count) override {
+        validate_vertices(v, "cannot write '" + path_ + "'");
+        np_ = v.points.size();
+        nt_ = tet_count;
+        name_ = xml_escape(v.field_name);
+        wide_ = 4 * nt_ > uint64_t(std::numeric_limits<int32_t>::max());
+        const char* id_type = wide_ ? "Int64" : "Int32";
+        auto array = [&](std::string attrs) { return std::make_unique<StreamArray>(std::move(attrs), path_, opt_); };
+        values_ = array(std::string("type=\"") + vtk_type_name(v.value_type) + "\" Name=\"" + name_ + "\"");
+        level_ = array("type=\"UInt8\" Name=\"level\"");
+        error_ = array("type=\"Float32\" Name=\"error\"");
+        points_ = array("type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"");
+        connectivity_ = array(std::string("type=\"") + id_type + "\" Name=\"connectivity\"");
+        offsets_ = array(std::string("type=\"") + id_type + "\" Name=\"offsets\"");
+        types_ = array("type=\"UInt8\" Name=\"types\"");
+        // Vertices in pieces: the field in its own sample type (exact: it came from it), world coordinates.
+        constexpr std::size_t kPiece = 1 << 16;
+        dispatch_value_type(v.value_type, [&](auto tag) {
+            using T = decltype(tag);
+            std::vector<T> buf;
+            for (std::size_t i = 0; i < np_; i += kPiece) {
+                buf.clear();
+                for (std::size_t j = i; j < std::min(np_, i + kPiece); ++j) buf.push_back(static_cast<T>(v.values[j]));
+                values_->push_values(std::span<const T>(buf));
+            }
+        });
+        std::vector<double> coords;
+        for (std::size_t i = 0; i < np_; i += kPiece) {
+            coords.clear();
+            for (std::size_t j = i; j < std::min(np_, i + kPiece); ++j) {
+                const auto w = v.geometry.world(v.points[j]);
+                coords.insert(coords.end(), w.begin(), w.end());
+            }
+            points_->push_values(std::span<const double>(coords));
+        }
+    }
+
+    void add(std::span<const std::array<uint32_t, 4>> tets, std::span<const uint8_t> level,
+             std::span<const float> error) override {
+        const std::string context = "cannot write '" + path_ + "'";
+        check_tets(tets, np_, context, added_);
+        if (added_ + tets.size() > nt_)
+            throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
+        // level and error: each for every tet, or (a mesh without it) never.
+        auto consistent = [&](std::size_t n, int& has) {
+            const int now = n == 0 ? 0 : 1;
+            if ((n != 0 && n != tets.size()) || (has >= 0 && has != now && !tets.empty()))
+                throw Error(ErrorCode::InvalidArgument, context + ": level and error must come with every tet or never");
+            if (!tets.empty()) has = now;
+        };
+        consistent(level.size(), has_level_);
+        consistent(error.size(), has_error_);
+        if (wide_) push_cells<int64_t>(tets); else push_cells<int32_t>(tets);
+        level_->push_values(level);
+        error_->push_values(error);
+        const std::vector<uint8_t> types(tets.size(), uint8_t{10});  // VTK_TETRA
+        types_->push_values(std::span<const uint8_t>(types));
+        added_ += tets.size();
+    }
+
+    void finish() override {
+        if (added_ != nt_)
+            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " + std::to_string(added_) +
+                                                        " tets came, " + std::to_string(nt_) + " were announced");
+        for (StreamArray* a : all()) a->close();
+        std::ostringstream xml;
+        uint64_t offset = 0;
+        auto section = [&](const char* tag, const std::string& tag_attrs, std::initializer_list<StreamArray*> arrays) {
+            xml << "      <" << tag << tag_attrs << ">\n";
+            for (StreamArray* a : arrays) {
+                xml << "        <DataArray " << a->attributes() << " format=\"appended\" offset=\"" << offset << "\"/>\n";
+                offset += a->encoded_size();
+            }
+            xml << "      </" << tag << ">\n";
+        };
+        const bool big = std::endian::native == std::endian::big;
+        xml << "<?xml version=\"1.0\"?>\n"
+            << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\""
+            << (big ? "BigEndian" : "LittleEndian") << "\" header_type=\"UInt64\""
+            << compressor_attribute(opt_.compression) << ">\n"
+            << "  <UnstructuredGrid>\n"
+            << "    <Piece NumberOfPoints=\"" << np_ << "\" NumberOfCells=\"" << nt_ << "\">\n";
+        section("PointData", " Scalars=\"" + name_ + "\"", {values_.get()});
+        std::vector<StreamArray*> cell_arrays;
+        if (has_level_ == 1) cell_arrays.push_back(level_.get());
+        if (has_error_ == 1) cell_arrays.push_back(error_.get());
+        xml << "      <CellData" << (cell_arrays.empty() ? "" : " Scalars=\"level\"") << ">\n";
+        for (StreamArray* a : cell_arrays) {
+            xml << "        <DataArray " << a->attributes() << " format=\"appended\" offset=\"" << offset << "\"/>\n";
+            offset += a->encoded_size();
+        }
+        xml << "      </CellData>\n";
+        section("Points", "", {points_.get()});
+        section("Cells", "", {connectivity_.get(), offsets_.get(), types_.get()});
+        xml << "    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _";
+        out_.write(xml.str());
+        for (StreamArray* a : all())
+            if ((a != level_.get() || has_level_ == 1) && (a != error_.get() || has_error_ == 1)) a->write_to(out_);
+        out_.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
+        out_.commit();
+    }
+
+private:
+    std::array<StreamArray*, 7> all() const {
+        return {values_.get(), level_.get(), error_.get(), points_.get(), connectivity_.get(), offsets_.get(),
+                types_.get()};
+    }
+
+    template <class I>
+    void push_cells(std::span<const std::array<uint32_t, 4>> tets) {
+        std::vector<I> conn(4 * tets.size()), offs(tets.size());
+        for (std::size_t i = 0; i < tets.size(); ++i) {
+            for (int k = 0; k < 4; ++k) conn[4 * i + k] = static_cast<I>(tets[i][k]);
+            offs[i] = static_cast<I>(4 * (added_ + i + 1));
+        }
+        connectivity_->push_values(std::span<const I>(conn));
+        offsets_->push_values(std::span<const I>(offs));
+    }
+
+    std::string path_;
+    VtuWriteOptions opt_;
+    AtomicFile out_;
+    std::string name_;
+    std::size_t np_ = 0;
+    uint64_t nt_ = 0, added_ = 0;
+    bool wide_ = false;
+    int has_level_ = -1, has_error_ = -1;  // unknown until a tet comes
+    std::unique_ptr<StreamArray> values_, level_, error_, points_, connectivity_, offsets_, types_;
+};
 
 }  // namespace
 
@@ -231,76 +389,16 @@ std::optional<MeshCompression> parse_mesh_compression(std::string_view name) {
     return std::nullopt;
 }
 
+std::unique_ptr<TetMeshSink> open_vtu_stream(const std::string& path, const VtuWriteOptions& options) {
+    return std::make_unique<VtuSink>(path, options);
+}
+
 void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptions& options) {
     validate(mesh, "cannot write '" + path + "'");
-    if (options.compression != MeshCompression::None &&
-        (options.block_size == 0 || options.block_size > (1u << 30) || options.compression_level < 0 ||
-         options.compression_level > 9))
-        throw Error(ErrorCode::InvalidArgument,
-                    "cannot write '" + path + "': block size must be in 1..2^30 and the level in 0..9");
-
-    const std::size_t np = mesh.points.size();
-    const std::size_t nt = mesh.tets.size();
-    const std::string name = xml_escape(mesh.field_name);
-
-    std::vector<double> coords;
-    coords.reserve(3 * np);
-    for (const auto& p : mesh.points) {
-        const auto w = mesh.geometry.world(p);
-        coords.insert(coords.end(), w.begin(), w.end());
-    }
-    auto make = [&](std::string attrs, const std::vector<std::byte>& raw) {
-        return Array{std::move(attrs), encode(raw, options, path)};
-    };
-    std::vector<Array> point_data, cell_data, points, cells;
-    const std::vector<std::byte> values = dispatch_value_type(mesh.value_type, [&](auto tag) {
-        return values_as<decltype(tag)>(mesh.values);
-    });
-    point_data.push_back(make(std::string("type=\"") + vtk_type_name(mesh.value_type) + "\" Name=\"" + name + "\"", values));
-    if (!mesh.level.empty())
-        cell_data.push_back(make("type=\"UInt8\" Name=\"level\"", bytes_of(mesh.level)));
-    if (!mesh.error.empty())
-        cell_data.push_back(make("type=\"Float32\" Name=\"error\"", bytes_of(mesh.error)));
-    points.push_back(
-        make("type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"", bytes_of(coords)));
-    if (4 * nt <= std::size_t(std::numeric_limits<int32_t>::max()))
-        add_cells<int32_t>(cells, mesh, "Int32", make);
-    else
-        add_cells<int64_t>(cells, mesh, "Int64", make);
-    const std::vector<uint8_t> types(nt, uint8_t{10});  // VTK_TETRA
-    cells.push_back(make("type=\"UInt8\" Name=\"types\"", bytes_of(types)));
-
-    std::ostringstream xml;
-    uint64_t offset = 0;
-    auto section = [&](const char* tag, const std::string& tag_attrs,
-                       const std::vector<Array>& arrays) {
-        xml << "      <" << tag << tag_attrs << ">\n";
-        for (const auto& a : arrays) {
-            xml << "        <DataArray " << a.xml_attributes << " format=\"appended\" offset=\""
-                << offset << "\"/>\n";
-            offset += a.encoded.size();
-        }
-        xml << "      </" << tag << ">\n";
-    };
-    const bool big = std::endian::native == std::endian::big;
-    xml << "<?xml version=\"1.0\"?>\n"
-        << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\""
-        << (big ? "BigEndian" : "LittleEndian") << "\" header_type=\"UInt64\""
-        << compressor_attribute(options.compression) << ">\n"
-        << "  <UnstructuredGrid>\n"
-        << "    <Piece NumberOfPoints=\"" << np << "\" NumberOfCells=\"" << nt << "\">\n";
-    section("PointData", " Scalars=\"" + name + "\"", point_data);
-    section("CellData", cell_data.empty() ? "" : " Scalars=\"level\"", cell_data);
-    section("Points", "", points);
-    section("Cells", "", cells);
-    xml << "    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _";
-
-    AtomicFile out(path);
-    out.write(xml.str());
-    for (const auto* group : {&point_data, &cell_data, &points, &cells})
-        for (const auto& a : *group) out.write(a.encoded.data(), a.encoded.size());
-    out.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
-    out.commit();
+    VtuSink sink(path, options);
+    sink.begin(mesh, mesh.tets.size());
+    sink.add(mesh.tets, mesh.level, mesh.error);
+    sink.finish();
 }
 
 MeshFormat vtu_mesh_format() {
@@ -313,6 +411,12 @@ MeshFormat vtu_mesh_format() {
         vo.compression = o.compression;
         vo.compression_level = o.compression_level;
         write_vtu(m, path, vo);
+    };
+    f.open_stream = [](const std::string& path, const MeshWriteOptions& o) {
+        VtuWriteOptions vo;
+        vo.compression = o.compression;
+        vo.compression_level = o.compression_level;
+        return open_vtu_stream(path, vo);
     };
     return f;
 }

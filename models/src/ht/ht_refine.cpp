@@ -53,6 +53,10 @@ struct PendingTet {
 constexpr int kEmitCutLevel = 12;
 // Below this many split diamonds the mesh is small: emit on the calling thread.
 constexpr uint64_t kParallelEmitMinSplits = 20000;
+// Streaming: the walk's subtrees in this many batches (a batch's tets are
+// held until handed over), this many emitted at once.
+constexpr std::size_t kStreamChunks = 4096;
+constexpr std::size_t kStreamChunksInFlight = 16;
 
 uint64_t pack(const Pt& p) {
     return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
@@ -172,7 +176,8 @@ private:
 template <class Access, class Marks>
 class Refiner {
 public:
-    Refiner(const HtDomain& dom, Access access, const LodQuery& q)
+    /// `labels`: geometry, field name and value type of the mesh (its arrays are ignored).
+    Refiner(const HtDomain& dom, Access access, const LodQuery& q, const TetMesh& labels = {})
         : dom_(dom),
           acc_(std::move(access)),
           q_(q),
@@ -183,41 +188,114 @@ public:
         has_region_ = bounds_.region;
         eps_min_ = bounds_.min();
         eps_max_ = bounds_.max();
+        mesh_.geometry = labels.geometry;
+        mesh_.field_name = labels.field_name;
+        mesh_.value_type = labels.value_type;
     }
 
+    /// The whole mesh.
     TetMesh run(HtExtractStats* stats) {
+        const auto t0 = std::chrono::steady_clock::now();
+        ht::MTet roots[6];
+        refine(roots);
+        const auto t1 = std::chrono::steady_clock::now();
+        emit_all(roots);
+        acc_.fill_values(mesh_.points, mesh_.values);
+        report(stats, t0, t1);
+        return std::move(mesh_);
+    }
+
+    /// The mesh in parts: vertices, then tets in batches as they are emitted
+    /// (a counting walk first, for the count the sink needs up front).
+    void run_to(TetMeshSink& sink, HtExtractStats* stats) {
+        const auto t0 = std::chrono::steady_clock::now();
+        ht::MTet roots[6];
+        refine(roots);
+        const auto t1 = std::chrono::steady_clock::now();
+        acc_.fill_values(mesh_.points, mesh_.values);
+        const std::vector<EmitItem> items = emit_items(roots);
+        std::vector<uint64_t> counts(items.size());
+        tbb::parallel_for(std::size_t(0), items.size(),
+                          [&](std::size_t i) { counts[i] = count(items[i].t, items[i].inside); });
+        uint64_t total = 0;
+        for (uint64_t c : counts) total += c;
+        sink.begin(mesh_, total);
+        mesh_.points = {};
+        mesh_.values = {};
+        // Batches of subtrees, emitted in parallel, handed over in order.
+        const std::size_t chunks = std::min<std::size_t>(items.size(), kStreamChunks);
+        for (std::size_t g = 0; g < chunks; g += kStreamChunksInFlight) {
+            const std::size_t n = std::min(kStreamChunksInFlight, chunks - g);
+            std::vector<EmitBuffer> out(n);
+            auto run_chunk = [&](std::size_t j) {
+                auto acc = acc_.fork();
+                const std::size_t k = g + j;
+                const std::size_t b = items.size() * k / chunks, e = items.size() * (k + 1) / chunks;
+                for (std::size_t i = b; i < e; ++i)
+                    emit(acc, items[i].t, items[i].ids, items[i].inside, items[i].positive, out[j]);
+            };
+            if (split_count_ > kParallelEmitMinSplits)
+                tbb::parallel_for(std::size_t(0), n, run_chunk);
+            else
+                for (std::size_t j = 0; j < n; ++j) run_chunk(j);
+            for (auto& o : out) {
+                sink.add(o.tets, o.level, o.error);
+                visited_ += o.visited;
+                max_error_ = std::max(max_error_, o.max_error);
+                o = EmitBuffer{};
+            }
+        }
+        visited_ += items.size();
+        sink.finish();
+        report(stats, t0, t1);
+    }
+
+private:
+    /// Phase 1: the split set (and the vertices, numbered as split).
+    void refine(ht::MTet roots[6]) {
         // Cube corners inside B are vertices of every mesh.
         for (int m = 0; m < 8; ++m) {
             Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};
             if (in_box(c)) marks_.add_corner(c, new_vertex(c));
         }
-        ht::MTet roots[6];
         ht::maubach_roots(dom_.L, roots);
-        for (const auto& r : roots) {
-            PendingTet p{spine_first(r.v, r.tag), 0};
+        for (int r = 0; r < 6; ++r) {
+            PendingTet p{spine_first(roots[r].v, roots[r].tag), 0};
             if (!ok(p)) pending_.push_back(ht::midpoint(p.v[0], p.v[1]));
         }
-        const auto t0 = std::chrono::steady_clock::now();
         while (!pending_.empty()) {
             const Pt c = pending_.back();
             pending_.pop_back();
             force(c);
         }
-        const auto t1 = std::chrono::steady_clock::now();
-        emit_all(roots);
-        acc_.fill_values(mesh_.points, mesh_.values);
-        const auto t2 = std::chrono::steady_clock::now();
-        if (stats) {
-            stats->refine_seconds = std::chrono::duration<double>(t1 - t0).count();
-            stats->emit_seconds = std::chrono::duration<double>(t2 - t1).count();
-            stats->max_error = max_error_;
-            stats->split_diamonds = split_count_;
-            stats->visited_tets = visited_;
-        }
-        return std::move(mesh_);
     }
 
-private:
+    void report(HtExtractStats* stats, std::chrono::steady_clock::time_point t0,
+                std::chrono::steady_clock::time_point t1) const {
+        const auto t2 = std::chrono::steady_clock::now();
+        if (!stats) return;
+        stats->refine_seconds = std::chrono::duration<double>(t1 - t0).count();
+        stats->emit_seconds = std::chrono::duration<double>(t2 - t1).count();
+        stats->max_error = max_error_;
+        stats->split_diamonds = split_count_;
+        stats->visited_tets = visited_;
+    }
+
+    /// Tets the emit walk outputs under t.
+    uint64_t count(const ht::MTet& t, bool inside) const {
+        bool refine = false;
+        if (!inside) {
+            const BoxRelation rel = ht::classify_against_data_box(t.v, dom_.box_max);
+            if (rel == BoxRelation::Outside) return 0;
+            refine = rel == BoxRelation::Crossing;
+            inside = !refine;
+        }
+        if (!refine && (t.level >= dom_.max_level() || !marks_.split(ht::maubach_centre(t)))) return 1;
+        ht::MTet c1, c2;
+        ht::maubach_bisect(t, c1, c2);
+        return count(c1, inside) + count(c2, inside);
+    }
+
     static Tet spine_first(const Tet& v, int tag) {
         Tet t{v[0], v[tag], {}, {}};
         int n = 2;
@@ -383,7 +461,7 @@ private:
     /// Phase 2. The walk is cut at a fixed depth into subtrees, emitted in
     /// parallel into per-chunk buffers and concatenated in depth-first order, so
     /// the mesh is the same whatever the number of threads.
-    void emit_all(const ht::MTet roots[6]) {
+    std::vector<EmitItem> emit_items(const ht::MTet roots[6]) const {
         std::vector<EmitItem> items;
         const int cut = std::min(dom_.max_level(), kEmitCutLevel);
         for (int r = 0; r < 6; ++r) {
@@ -392,6 +470,11 @@ private:
             collect(roots[r], ids, false,
                     ht::orient(roots[r].v[0], roots[r].v[1], roots[r].v[2], roots[r].v[3]) > 0, cut, items);
         }
+        return items;
+    }
+
+    void emit_all(const ht::MTet roots[6]) {
+        const std::vector<EmitItem> items = emit_items(roots);
         const std::size_t chunks = std::min<std::size_t>(items.size(), 256);
         std::vector<EmitBuffer> out(std::max<std::size_t>(chunks, 1));
         auto run_chunk = [&](std::size_t k) {
@@ -513,21 +596,42 @@ private:
 
 }  // namespace
 
+namespace {
+void label(TetMesh& m, const Volume& f) {
+    m.geometry.spacing = f.spacing;
+    m.geometry.origin = f.origin;
+    m.field_name = f.field_name;
+    m.value_type = f.type;
+}
+}  // namespace
+
 TetMesh HtModel::extract(const LodQuery& query, HtExtractStats* stats) const {
     detail::check_query(query);
     Refiner<ArrayAccess, DenseMarks> r(domain_, ArrayAccess(*this), query);
     TetMesh mesh = r.run(stats);
-    mesh.geometry.spacing = field_->spacing;
-    mesh.geometry.origin = field_->origin;
-    mesh.field_name = field_->field_name;
-    mesh.value_type = field_->type;
+    label(mesh, *field_);
     return mesh;
+}
+
+void HtModel::extract_to(const LodQuery& query, TetMeshSink& sink, HtExtractStats* stats) const {
+    detail::check_query(query);
+    TetMesh labels;
+    label(labels, *field_);
+    Refiner<ArrayAccess, DenseMarks> r(domain_, ArrayAccess(*this), query, labels);
+    r.run_to(sink, stats);
 }
 
 TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, HtExtractStats* stats) {
     detail::check_query(query);
     Refiner<SourceAccess, SparseMarks> r(domain, SourceAccess(source), query);
     return r.run(stats);
+}
+
+void refine_ht_to(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, const TetMesh& labels,
+                  TetMeshSink& sink, HtExtractStats* stats) {
+    detail::check_query(query);
+    Refiner<SourceAccess, SparseMarks> r(domain, SourceAccess(source), query, labels);
+    r.run_to(sink, stats);
 }
 
 }  // namespace tetlod

@@ -2,6 +2,9 @@
 // The one consistency check of a TetMesh, used by every consumer that indexes
 // its arrays (mesh writers, marching tetrahedra, resampling): a mesh built by
 // hand or read from outside must never make them read past an array.
+#include <array>
+#include <cstdint>
+#include <span>
 #include <string>
 
 #include "tetlod/core/tet_mesh.hpp"
@@ -25,5 +28,12 @@ std::string tet_mesh_problem(const TetMesh& mesh, const TetMeshChecks& checks = 
 /// tet_mesh_problem finds one. `context` names the caller and file, e.g.
 /// "cannot write 'out.vtu'" or "isosurface".
 void validate(const TetMesh& mesh, const std::string& context, const TetMeshChecks& checks = {});
+
+/// The parts of validate() a streaming consumer can check as parts arrive:
+/// the vertices (values per point), then each batch of tets against the
+/// vertex count (`first` numbers the batch's first tet in messages).
+void validate_vertices(const TetMesh& vertices, const std::string& context);
+void check_tets(std::span<const std::array<uint32_t, 4>> tets, std::size_t points, const std::string& context,
+                uint64_t first = 0);
 
 }  // namespace tetlod

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/triangle_mesh.hpp"
 #include "tetlod/core/volume.hpp"
 #include "tetlod/models/lod_query.hpp"
@@ -66,6 +67,9 @@ struct LodModel {
     /// Throws tetlod::Error(CorruptData) only if the model is inconsistent, which
     /// a model that passed its decoder's validation never is.
     TetMesh extract(const LodQuery& query, LodExtractStats* stats = nullptr) const;
+    /// The same mesh handed to `sink` in parts: streamed by the HT (memory
+    /// does not grow with the tets), extracted whole then handed over by the MT.
+    void extract_to(const LodQuery& query, TetMeshSink& sink, LodExtractStats* stats = nullptr) const;
     /// Marching tetrahedra on the mesh of `query` for each of `isovalues` (see
     /// tetlod/models/isosurface.hpp; throws InvalidArgument on a NaN isovalue).
     TriangleMesh isosurface(const LodQuery& query, std::span<const double> isovalues) const;

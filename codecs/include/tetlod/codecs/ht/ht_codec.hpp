@@ -108,6 +108,12 @@ struct HtLazyOptions {
 Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery& query,
                                   HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr,
                                   const HtLazyOptions& options = {});
+/// The same mesh handed to `sink` in parts (HtModel::extract_to): memory holds
+/// the cache, the split set and one batch of tets. The sink's exceptions
+/// (tetlod::Error) come back as the Failure.
+Expected<Done> extract_ht_lazy_to(tlod::ContainerReader& reader, const LodQuery& query, TetMeshSink& sink,
+                                  HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr,
+                                  const HtLazyOptions& options = {});
 
 /// The original volume, bit-exact (padding removed), with its metadata restored.
 Expected<Volume> decode_volume(tlod::ContainerReader& reader,

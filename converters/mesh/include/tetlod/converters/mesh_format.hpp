@@ -5,12 +5,14 @@
 // its help texts come from this table.
 #include <deque>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 
 namespace tetlod {
 
@@ -46,6 +48,10 @@ struct MeshFormat {
     bool built = true;
     /// Writes atomically; throws tetlod::Error naming the file.
     std::function<void(const TetMesh&, const std::string& path, const MeshWriteOptions&)> write;
+    /// Optional: a writer taking the mesh in parts (tet_mesh_sink.hpp), whose
+    /// memory does not grow with the tets. Without it, open_mesh_stream
+    /// gathers the parts and calls `write` at the end.
+    std::function<std::unique_ptr<TetMeshSink>(const std::string& path, const MeshWriteOptions&)> open_stream;
     /// Optional: other files `write` creates beside `path` (Medit's .sol).
     std::function<std::vector<std::string>(const std::string& path)> companion_files;
 };

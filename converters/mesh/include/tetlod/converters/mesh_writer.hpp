@@ -2,6 +2,7 @@
 // One entry point for every tetrahedral mesh format, chosen by name or by the
 // output file's extension through the table of formats (mesh_format.hpp), so
 // tools never need to know the individual writers.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,13 @@ std::vector<std::string> mesh_format_names();
 /// supported ones, and whatever the chosen writer throws.
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const std::string& format = "",
                     const MeshWriteOptions& options = {});
+
+/// A sink writing to `path` in the chosen format (as write_tet_mesh chooses
+/// it) as the parts arrive: streaming for the formats that can (.vtu, .vtk,
+/// .msh), gathered and written at finish() for the others. Throws like
+/// write_tet_mesh (an unknown format, a refused output) before any work.
+std::unique_ptr<TetMeshSink> open_mesh_stream(const std::string& path, const std::string& format = "",
+                                              const MeshWriteOptions& options = {});
 
 /// Files write_tet_mesh(mesh, path) creates besides `path` (Medit's .sol);
 /// empty for an unknown extension.

@@ -13,10 +13,12 @@
 // "level" (UInt8) and "error" (Float32) when the mesh has them. Cells are VTK
 // tetrahedra (type 10) with the mesh's vertex order, positive in index space.
 #include <cstddef>
+#include <memory>
 #include <string>
 
 #include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 
 namespace tetlod {
 
@@ -34,6 +36,10 @@ struct VtuWriteOptions {
 /// InvalidArgument when the mesh is inconsistent (array sizes, vertex ids out of
 /// range), IoError when the file cannot be written.
 void write_vtu(const TetMesh& mesh, const std::string& path, const VtuWriteOptions& options = {});
+/// The same file written as the parts arrive: memory holds one batch of
+/// blocks per array; the encoded arrays wait in temporary files beside `path`
+/// until finish() writes the header (which needs their sizes) and them.
+std::unique_ptr<TetMeshSink> open_vtu_stream(const std::string& path, const VtuWriteOptions& options = {});
 
 /// Writes `mesh` as a legacy .vtk file (version 3.0 layout, 32-bit cell ids),
 /// atomically. Throws like write_vtu, and TooLarge when the mesh exceeds the

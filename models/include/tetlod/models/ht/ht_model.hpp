@@ -18,6 +18,7 @@
 
 #include "tetlod/models/lod_query.hpp"
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/volume.hpp"
 #include "tetlod/core/zeroed_allocator.hpp"
 
@@ -93,6 +94,10 @@ public:
     /// Selective refinement: the coarsest conforming mesh in which every tet
     /// satisfies its bound (unique, see docs/ht.md). Covers exactly B.
     TetMesh extract(const LodQuery& query, HtExtractStats* stats = nullptr) const;
+    /// The same mesh handed to `sink` in parts, tet for tet in the same order:
+    /// the vertices, then the tets in batches as the walk emits them, so that
+    /// memory holds the split set and one batch of tets, never the whole mesh.
+    void extract_to(const LodQuery& query, TetMeshSink& sink, HtExtractStats* stats = nullptr) const;
 
     /// The value range [min, max] of the field (for percent thresholds).
     std::array<double, 2> value_range() const { return range_; }

@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/models/lod_query.hpp"
 
@@ -35,5 +36,9 @@ public:
 /// name and value type are left to the caller). Throws what the source throws.
 TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery& query,
                   HtExtractStats* stats = nullptr);
+/// The same mesh handed to `sink` in parts (see HtModel::extract_to); `labels`
+/// gives its geometry, field name and value type.
+void refine_ht_to(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, const TetMesh& labels,
+                  TetMeshSink& sink, HtExtractStats* stats = nullptr);
 
 }  // namespace tetlod

@@ -1,0 +1,35 @@
+#pragma once
+// Bytes a streaming writer must place after data it has not written yet (a
+// file header needs sizes known only at the end): kept in an anonymous
+// temporary file, removed by the system when closed, so memory stays bounded.
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+namespace tetlod {
+
+class AtomicFile;
+
+class SpillFile {
+public:
+    /// A temporary file in the directory of `near_path` (where the output goes,
+    /// so the spill uses the disk the output needs anyway), unlinked at once.
+    /// Throws tetlod::Error(IoError) naming `near_path`.
+    explicit SpillFile(const std::string& near_path);
+    ~SpillFile();
+    SpillFile(const SpillFile&) = delete;
+    SpillFile& operator=(const SpillFile&) = delete;
+
+    void write(const void* data, std::size_t size);
+    uint64_t size() const { return size_; }
+    /// Appends everything written so far to `out`.
+    void copy_to(AtomicFile& out);
+
+private:
+    std::string near_;
+    std::FILE* file_ = nullptr;
+    uint64_t size_ = 0;
+};
+
+}  // namespace tetlod

@@ -1,0 +1,59 @@
+#include "tetlod/core/spill_file.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <vector>
+
+#include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+SpillFile::SpillFile(const std::string& near_path) : near_(near_path) {
+    std::filesystem::path dir = std::filesystem::path(near_path).parent_path();
+    if (dir.empty()) dir = ".";
+    std::error_code ec;
+    if (near_path == "-" || !std::filesystem::is_directory(dir, ec)) dir = std::filesystem::temp_directory_path(ec);
+    std::string templ = (dir / ".tetlod-spill.XXXXXX").string();
+    const int fd = ::mkstemp(templ.data());
+    if (fd < 0)
+        throw Error(ErrorCode::IoError, "cannot create a temporary file for '" + near_path + "' in " +
+                                            dir.string() + ": " + std::strerror(errno));
+    ::unlink(templ.c_str());
+    file_ = ::fdopen(fd, "w+b");
+    if (!file_) {
+        ::close(fd);
+        throw Error(ErrorCode::IoError, "cannot open a temporary file for '" + near_path + "'");
+    }
+}
+
+SpillFile::~SpillFile() {
+    if (file_) std::fclose(file_);
+}
+
+void SpillFile::write(const void* data, std::size_t size) {
+    if (size == 0) return;
+    if (std::fwrite(data, 1, size, file_) != size)
+        throw Error(ErrorCode::IoError, "cannot write a temporary file for '" + near_ + "': " + std::strerror(errno));
+    size_ += size;
+}
+
+void SpillFile::copy_to(AtomicFile& out) {
+    if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0)
+        throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
+    std::vector<char> buf(std::size_t{1} << 20);
+    uint64_t left = size_;
+    while (left > 0) {
+        const std::size_t n = std::size_t(std::min<uint64_t>(left, buf.size()));
+        if (std::fread(buf.data(), 1, n, file_) != n)
+            throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
+        out.write(buf.data(), n);
+        left -= n;
+    }
+    std::fseek(file_, 0, SEEK_END);
+}
+
+}  // namespace tetlod
