@@ -41,19 +41,23 @@ void SpillFile::write(const void* data, std::size_t size) {
     size_ += size;
 }
 
-void SpillFile::copy_to(AtomicFile& out) {
+void SpillFile::read_back(const std::function<void(const std::byte*, std::size_t)>& piece) {
     if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0)
         throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
-    std::vector<char> buf(std::size_t{1} << 20);
+    std::vector<std::byte> buf(std::size_t{1} << 20);
     uint64_t left = size_;
     while (left > 0) {
         const std::size_t n = std::size_t(std::min<uint64_t>(left, buf.size()));
         if (std::fread(buf.data(), 1, n, file_) != n)
             throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
-        out.write(buf.data(), n);
+        piece(buf.data(), n);
         left -= n;
     }
     std::fseek(file_, 0, SEEK_END);
+}
+
+void SpillFile::copy_to(AtomicFile& out) {
+    read_back([&](const std::byte* d, std::size_t n) { out.write(d, n); });
 }
 
 }  // namespace tetlod

@@ -7,10 +7,14 @@
 
 #include <cstdio>
 #include <cstring>
+#include <memory>
+#include <span>
 #include <vector>
 
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/spill_file.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/tet_mesh_validation.hpp"
 
 namespace tetlod {
@@ -51,6 +55,13 @@ public:
     }
     bool binary() const { return binary_; }
     const std::string& bytes() const { return buf_; }
+    /// Writes what was put to `out` once it exceeds `threshold` bytes (0: always).
+    template <class Out>
+    void drain_to(Out& out, std::size_t threshold = 0) {
+        if (buf_.size() < threshold) return;
+        out.write(buf_.data(), buf_.size());
+        buf_.clear();
+    }
 
 private:
     template <class T>
@@ -75,67 +86,131 @@ void view_header(MshOut& o, const char* section, const std::string& name, std::s
            std::to_string(count) + "\n");
 }
 
-template <class Get>
-void view(MshOut& o, const char* section, const std::string& name, std::size_t count, Get get) {
-    view_header(o, section, name, count);
-    for (std::size_t i = 0; i < count; ++i) {
-        // Data-section tags are int in the binary layout.
-        o.integer(static_cast<int32_t>(i + 1));
-        o.real(get(i));
-        o.eol();
+constexpr std::size_t kDrainBytes = std::size_t{1} << 20;
+
+/// The streaming writer: nodes and elements go to the file as they come; the
+/// data views after them wait in temporary files (the node data formatted
+/// already, level and error as raw values to format at the end).
+class GmshSink final : public TetMeshSink {
+public:
+    GmshSink(const std::string& path, bool binary)
+        : path_(path), binary_(binary), out_(path), o_(binary), node_data_(path), level_(path), error_(path) {}
+
+    void begin(const TetMesh& v, uint64_t tet_count) override {
+        validate_vertices(v, "cannot write '" + path_ + "'");
+        np_ = v.points.size();
+        nt_ = tet_count;
+        if ((np_ > 0x7fffffffu || nt_ > 0x7fffffffu) && binary_)
+            throw Error(ErrorCode::TooLarge,
+                        "'" + path_ + "': more than 2^31 nodes or elements (MSH data tags are int)");
+        o_.text(binary_ ? "$MeshFormat\n4.1 1 8\n" : "$MeshFormat\n4.1 0 8\n");
+        if (binary_) {
+            const int32_t one = 1;  // lets readers detect the byte order
+            char b[4];
+            std::memcpy(b, &one, 4);
+            o_.text(std::string(b, 4));
+        }
+        o_.end("MeshFormat");
+        o_.text("$Nodes\n");
+        o_.size(np_ ? 1 : 0), o_.size(np_), o_.size(np_ ? 1 : 0), o_.size(np_), o_.eol();
+        if (np_) {
+            o_.integer(3), o_.integer(1), o_.integer(0), o_.size(np_), o_.eol();  // dim, tag, parametric
+            for (std::size_t i = 0; i < np_; ++i) {
+                o_.size(i + 1), o_.eol();
+                o_.drain_to(out_, kDrainBytes);
+            }
+            for (const auto& p : v.points) {
+                const auto w = v.geometry.world(p);
+                o_.real(w[0]), o_.real(w[1]), o_.real(w[2]), o_.eol();
+                o_.drain_to(out_, kDrainBytes);
+            }
+        }
+        o_.end("Nodes");
+        // The node data view, formatted now (the values are not kept).
+        MshOut d(binary_);
+        view_header(d, "NodeData", v.field_name, np_);
+        for (std::size_t i = 0; i < np_; ++i) {
+            d.integer(static_cast<int32_t>(i + 1));
+            d.real(v.values[i]);
+            d.eol();
+            d.drain_to(node_data_, kDrainBytes);
+        }
+        d.end("NodeData");
+        d.drain_to(node_data_);
+        o_.text("$Elements\n");
+        o_.size(nt_ ? 1 : 0), o_.size(nt_), o_.size(nt_ ? 1 : 0), o_.size(nt_), o_.eol();
+        if (nt_) o_.integer(3), o_.integer(1), o_.integer(4), o_.size(nt_), o_.eol();  // type 4: 4-node tet
+        o_.drain_to(out_);
     }
-    o.end(section);
-}
+
+    void add(std::span<const std::array<uint32_t, 4>> tets, std::span<const uint8_t> level,
+             std::span<const float> error) override {
+        const std::string context = "cannot write '" + path_ + "'";
+        check_tets(tets, np_, context, added_);
+        if (added_ + tets.size() > nt_) throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
+        cells_.check(tets.size(), level.size(), error.size(), context);
+        for (std::size_t i = 0; i < tets.size(); ++i) {
+            o_.size(added_ + i + 1);
+            for (uint32_t v : tets[i]) o_.size(uint64_t(v) + 1);
+            o_.eol();
+            o_.drain_to(out_, kDrainBytes);
+        }
+        o_.drain_to(out_);
+        level_.write(level.data(), level.size_bytes());
+        error_.write(error.data(), error.size_bytes());
+        added_ += tets.size();
+    }
+
+    void finish() override {
+        if (added_ != nt_)
+            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " + std::to_string(added_) +
+                                                        " tets came, " + std::to_string(nt_) + " were announced");
+        o_.end("Elements");
+        o_.drain_to(out_);
+        node_data_.copy_to(out_);
+        if (cells_.level()) element_view<uint8_t>("level", level_);
+        if (cells_.error()) element_view<float>("error", error_);
+        out_.commit();
+    }
+
+private:
+    template <class T>
+    void element_view(const char* name, SpillFile& values) {
+        view_header(o_, "ElementData", name, nt_);
+        uint64_t tag = 0;
+        values.read_back([&](const std::byte* data, std::size_t size) {
+            for (std::size_t k = 0; k + sizeof(T) <= size; k += sizeof(T)) {
+                T v;
+                std::memcpy(&v, data + k, sizeof(T));
+                o_.integer(static_cast<int32_t>(++tag));
+                o_.real(double(v));
+                o_.eol();
+                o_.drain_to(out_, kDrainBytes);
+            }
+        });
+        o_.end("ElementData");
+        o_.drain_to(out_);
+    }
+
+    std::string path_;
+    bool binary_;
+    AtomicFile out_;
+    MshOut o_;
+    SpillFile node_data_, level_, error_;
+    std::size_t np_ = 0;
+    uint64_t nt_ = 0, added_ = 0;
+    CellDataPresence cells_;
+};
 
 }  // namespace
 
+std::unique_ptr<TetMeshSink> open_gmsh_stream(const std::string& path, bool binary) {
+    return std::make_unique<GmshSink>(path, binary);
+}
+
 void write_gmsh(const TetMesh& mesh, const std::string& path, bool binary) {
     validate(mesh, "cannot write '" + path + "'");
-    const std::size_t np = mesh.points.size(), nt = mesh.tets.size();
-    if ((np > 0x7fffffffu || nt > 0x7fffffffu) && binary)
-        throw Error(ErrorCode::TooLarge,
-                    "'" + path + "': more than 2^31 nodes or elements (MSH data tags are int)");
-    MshOut o(binary);
-    o.text(binary ? "$MeshFormat\n4.1 1 8\n" : "$MeshFormat\n4.1 0 8\n");
-    if (binary) {
-        const int32_t one = 1;  // lets readers detect the byte order
-        char b[4];
-        std::memcpy(b, &one, 4);
-        o.text(std::string(b, 4));
-    }
-    o.end("MeshFormat");
-
-    o.text("$Nodes\n");
-    o.size(np ? 1 : 0), o.size(np), o.size(np ? 1 : 0), o.size(np), o.eol();
-    if (np) {
-        o.integer(3), o.integer(1), o.integer(0), o.size(np), o.eol();  // dim, tag, parametric
-        for (std::size_t i = 0; i < np; ++i) o.size(i + 1), o.eol();
-        for (const auto& p : mesh.points) {
-            const auto w = mesh.geometry.world(p);
-            o.real(w[0]), o.real(w[1]), o.real(w[2]), o.eol();
-        }
-    }
-    o.end("Nodes");
-
-    o.text("$Elements\n");
-    o.size(nt ? 1 : 0), o.size(nt), o.size(nt ? 1 : 0), o.size(nt), o.eol();
-    if (nt) {
-        o.integer(3), o.integer(1), o.integer(4), o.size(nt), o.eol();  // type 4: 4-node tet
-        for (std::size_t i = 0; i < nt; ++i) {
-            const auto& t = mesh.tets[i];
-            o.size(i + 1);
-            for (uint32_t v : t) o.size(uint64_t(v) + 1);
-            o.eol();
-        }
-    }
-    o.end("Elements");
-
-    view(o, "NodeData", mesh.field_name, np, [&](std::size_t i) { return mesh.values[i]; });
-    if (!mesh.level.empty())
-        view(o, "ElementData", "level", nt, [&](std::size_t i) { return double(mesh.level[i]); });
-    if (!mesh.error.empty())
-        view(o, "ElementData", "error", nt, [&](std::size_t i) { return double(mesh.error[i]); });
-    write_file_atomic(path, o.bytes().data(), o.bytes().size());
+    send_mesh(mesh, *open_gmsh_stream(path, binary));
 }
 
 MeshFormat gmsh_ascii_mesh_format() {
@@ -144,15 +219,16 @@ MeshFormat gmsh_ascii_mesh_format() {
     f.extensions = {".msh"};
     f.description = "(Gmsh 4.1)";
     f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_gmsh(m, path, false); };
+    f.open_stream = [](const std::string& path, const MeshWriteOptions&) { return open_gmsh_stream(path, false); };
     return f;
 }
 
-// Only by name: a .msh file is ASCII unless binary is asked for.
 MeshFormat gmsh_binary_mesh_format() {
     MeshFormat f;
     f.name = "msh-binary";
     f.description = "(Gmsh 4.1 binary)";
     f.write = [](const TetMesh& m, const std::string& path, const MeshWriteOptions&) { write_gmsh(m, path, true); };
+    f.open_stream = [](const std::string& path, const MeshWriteOptions&) { return open_gmsh_stream(path, true); };
     return f;
 }
 

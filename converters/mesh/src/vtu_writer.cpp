@@ -284,15 +284,7 @@ public:
         check_tets(tets, np_, context, added_);
         if (added_ + tets.size() > nt_)
             throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
-        // level and error: each for every tet, or (a mesh without it) never.
-        auto consistent = [&](std::size_t n, int& has) {
-            const int now = n == 0 ? 0 : 1;
-            if ((n != 0 && n != tets.size()) || (has >= 0 && has != now && !tets.empty()))
-                throw Error(ErrorCode::InvalidArgument, context + ": level and error must come with every tet or never");
-            if (!tets.empty()) has = now;
-        };
-        consistent(level.size(), has_level_);
-        consistent(error.size(), has_error_);
+        cells_.check(tets.size(), level.size(), error.size(), context);
         if (wide_) push_cells<int64_t>(tets); else push_cells<int32_t>(tets);
         level_->push_values(level);
         error_->push_values(error);
@@ -325,8 +317,8 @@ public:
             << "    <Piece NumberOfPoints=\"" << np_ << "\" NumberOfCells=\"" << nt_ << "\">\n";
         section("PointData", " Scalars=\"" + name_ + "\"", {values_.get()});
         std::vector<StreamArray*> cell_arrays;
-        if (has_level_ == 1) cell_arrays.push_back(level_.get());
-        if (has_error_ == 1) cell_arrays.push_back(error_.get());
+        if (cells_.level()) cell_arrays.push_back(level_.get());
+        if (cells_.error()) cell_arrays.push_back(error_.get());
         xml << "      <CellData" << (cell_arrays.empty() ? "" : " Scalars=\"level\"") << ">\n";
         for (StreamArray* a : cell_arrays) {
             xml << "        <DataArray " << a->attributes() << " format=\"appended\" offset=\"" << offset << "\"/>\n";
@@ -338,7 +330,7 @@ public:
         xml << "    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _";
         out_.write(xml.str());
         for (StreamArray* a : all())
-            if ((a != level_.get() || has_level_ == 1) && (a != error_.get() || has_error_ == 1)) a->write_to(out_);
+            if ((a != level_.get() || cells_.level()) && (a != error_.get() || cells_.error())) a->write_to(out_);
         out_.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
         out_.commit();
     }
@@ -367,7 +359,7 @@ private:
     std::size_t np_ = 0;
     uint64_t nt_ = 0, added_ = 0;
     bool wide_ = false;
-    int has_level_ = -1, has_error_ = -1;  // unknown until a tet comes
+    CellDataPresence cells_;
     std::unique_ptr<StreamArray> values_, level_, error_, points_, connectivity_, offsets_, types_;
 };
 

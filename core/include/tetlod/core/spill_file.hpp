@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 
 namespace tetlod {
@@ -25,6 +26,9 @@ public:
     uint64_t size() const { return size_; }
     /// Appends everything written so far to `out`.
     void copy_to(AtomicFile& out);
+    /// Reads everything written so far back, in pieces of at most 1 MiB (a
+    /// multiple of 8 bytes, so values never straddle two pieces).
+    void read_back(const std::function<void(const std::byte* data, std::size_t size)>& piece);
 
 private:
     std::string near_;

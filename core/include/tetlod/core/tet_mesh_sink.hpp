@@ -6,6 +6,9 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
+
+#include "tetlod/core/error.hpp"
 
 #include "tetlod/core/tet_mesh.hpp"
 
@@ -23,6 +26,29 @@ public:
     /// Once, last: completes the output (a file is committed here, atomically).
     /// Throws when fewer or more tets came than begin announced.
     virtual void finish() = 0;
+};
+
+/// For streaming writers: a mesh has per-tet level (and error) for every tet or
+/// for none (a TetMesh may lack them); the batches must agree.
+class CellDataPresence {
+public:
+    /// Throws InvalidArgument "<context>: ..." when a batch disagrees.
+    void check(std::size_t tets, std::size_t levels, std::size_t errors, const std::string& context) {
+        one(tets, levels, level_, context);
+        one(tets, errors, error_, context);
+    }
+    bool level() const { return level_ == 1; }
+    bool error() const { return error_ == 1; }
+
+private:
+    static void one(std::size_t tets, std::size_t n, int& has, const std::string& context) {
+        if (tets == 0) return;
+        const int now = n == 0 ? 0 : 1;
+        if ((n != 0 && n != tets) || (has >= 0 && has != now))
+            throw Error(ErrorCode::InvalidArgument, context + ": level and error must come with every tet or never");
+        has = now;
+    }
+    int level_ = -1, error_ = -1;  // unknown until a tet comes
 };
 
 /// Collects the parts into a TetMesh.

@@ -10,9 +10,11 @@
 // size_t (8 bytes), dims/tags/types in entity headers as int, node and element
 // tags as size_t, data-section tags as int, all little-endian (this machine's order,
 // announced by the int 1 after the format line).
+#include <memory>
 #include <string>
 
 #include "tetlod/core/tet_mesh.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 
 namespace tetlod {
 
@@ -20,5 +22,8 @@ namespace tetlod {
 /// Throws tetlod::Error(InvalidArgument) on an inconsistent mesh, IoError when the
 /// file cannot be written.
 void write_gmsh(const TetMesh& mesh, const std::string& path, bool binary);
+/// The same file written as the parts arrive (the data views after the
+/// elements wait in temporary files beside `path`).
+std::unique_ptr<TetMeshSink> open_gmsh_stream(const std::string& path, bool binary);
 
 }  // namespace tetlod

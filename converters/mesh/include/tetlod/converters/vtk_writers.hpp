@@ -45,5 +45,8 @@ std::unique_ptr<TetMeshSink> open_vtu_stream(const std::string& path, const VtuW
 /// atomically. Throws like write_vtu, and TooLarge when the mesh exceeds the
 /// legacy format's 32-bit cell array.
 void write_vtk_legacy(const TetMesh& mesh, const std::string& path);
+/// The same file written as the parts arrive (the sections after the cells
+/// wait in temporary files beside `path`).
+std::unique_ptr<TetMeshSink> open_vtk_legacy_stream(const std::string& path);
 
 }  // namespace tetlod
