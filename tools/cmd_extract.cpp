@@ -4,7 +4,9 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <ostream>
+#include <span>
 
 #include "cli_common.hpp"
 #include "command.hpp"
@@ -32,6 +34,33 @@ MeshWriteOptions mesh_write_options(const ExtractArgs& a) {
     return o;
 }
 
+/// The writer behind a progress bar over the tets written (on a terminal,
+/// without -q or --no-progress).
+class ProgressSink final : public TetMeshSink {
+public:
+    explicit ProgressSink(TetMeshSink& to) : to_(to) {}
+    void begin(const TetMesh& v, uint64_t n) override {
+        total_ = n;
+        bar_.emplace("writing", "tets");
+        to_.begin(v, n);
+    }
+    void add(std::span<const std::array<uint32_t, 4>> t, std::span<const uint8_t> l,
+             std::span<const float> e) override {
+        to_.add(t, l, e);
+        done_ += t.size();
+        bar_->update(done_, total_);
+    }
+    void finish() override {
+        to_.finish();
+        bar_.reset();
+    }
+
+private:
+    TetMeshSink& to_;
+    std::optional<ProgressBar> bar_;
+    uint64_t total_ = 0, done_ = 0;
+};
+
 ContainerExtractOptions extract_options(const ExtractArgs& a) {
     ContainerExtractOptions o;
     o.cache_bytes = std::size_t(a.cache_mb) << 20;
@@ -44,8 +73,9 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
     const auto error_out = a.lod.error_out_threshold();
     // The mesh streams into the writer (memory does not grow with the tets).
     const auto sink = open_mesh_stream(a.output, a.format, mesh_write_options(a));
+    ProgressSink shown(*sink);
     const ContainerExtract x =
-        extract_from_container_to(a.input, model, a.lod.region_query(nullptr), *sink,
+        extract_from_container_to(a.input, model, a.lod.region_query(nullptr), shown,
                                   [&](LodQuery& q, const std::array<double, 2>& range) {
                                       q.error_in = error_in.resolve(range);
                                       q.error_out = error_out.resolve(range);
@@ -101,7 +131,8 @@ int run_extract(const ExtractArgs& a) {
     // The mesh streams into the writer: extraction and writing are one step.
     Stopwatch extract_clock;
     const auto sink = open_mesh_stream(a.output, a.format, mesh_write_options(a));
-    TetMeshCounter counted(*sink);
+    ProgressSink shown(*sink);
+    TetMeshCounter counted(shown);
     model.extract_to(query, counted, &stats);
     const double extract_seconds = extract_clock.seconds();
     const double max_error = stats.max_error;

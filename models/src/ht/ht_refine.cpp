@@ -392,6 +392,15 @@ private:
     void enqueue_children(const Pt& c, const DiamondInfo& d) {
         Tet tets[8];
         const int nt = ht::diamond_tets(c, d, dom_.L, tets);
+        // Up to 16 children tets name at most 8 child diamonds: push each once,
+        // and none already split, so the stack stays as small as the fast path's.
+        Pt todo[16];
+        int pushed = 0;
+        auto push = [&](const Pt& m) {
+            for (int j = 0; j < pushed; ++j)
+                if (todo[j] == m) return;
+            todo[pushed++] = m;
+        };
         for (int i = 0; i < nt; ++i) {
             if (ht::classify_against_data_box(tets[i], dom_.box_max) == BoxRelation::Outside)
                 continue;
@@ -402,9 +411,11 @@ private:
                 ch.level = uint8_t(d.level + 1);
                 Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
                 ch.v = respine(v);
-                if (!ok(ch)) pending_.push_back(ht::midpoint(ch.v[0], ch.v[1]));
+                if (!ok(ch)) push(ht::midpoint(ch.v[0], ch.v[1]));
             }
         }
+        for (int j = 0; j < pushed; ++j)
+            if (!is_split(todo[j])) pending_.push_back(todo[j]);
     }
 
     /// Puts the longest edge first (it is unique in the HT).
