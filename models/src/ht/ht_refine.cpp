@@ -392,13 +392,18 @@ private:
     void enqueue_children(const Pt& c, const DiamondInfo& d) {
         Tet tets[8];
         const int nt = ht::diamond_tets(c, d, dom_.L, tets);
-        // Up to 16 children tets name at most 8 child diamonds: push each once,
-        // and none already split, so the stack stays as small as the fast path's.
+        // Up to 16 children tets name at most 8 child diamonds: push each once
+        // (at its last mention, so the order of the splits, hence the vertex
+        // numbering, is that of pushing every mention), and none already split.
         Pt todo[16];
         int pushed = 0;
         auto push = [&](const Pt& m) {
             for (int j = 0; j < pushed; ++j)
-                if (todo[j] == m) return;
+                if (todo[j] == m) {
+                    for (int q = j; q + 1 < pushed; ++q) todo[q] = todo[q + 1];
+                    todo[pushed - 1] = m;
+                    return;
+                }
             todo[pushed++] = m;
         };
         for (int i = 0; i < nt; ++i) {
