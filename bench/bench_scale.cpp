@@ -5,15 +5,23 @@
 // construction: a query from the container should not.
 //
 //   build/bench/bench_scale [--sizes 129,257,513] [--real FILE.raw X,Y,Z u8] [--dir DIR]
+//                           [--full-max 257]
 //
 // Volumes are `tetlod sample multiscale` at each size (u8); --real adds one raw
 // file. Files go to DIR (default: a folder in the working directory), which is
 // removed at the end unless given.
+//
+// Last, `--full` to .vtu (zlib) on the volumes of at most --full-max points per
+// axis: streamed from the container and from memory, beside VTK's
+// tetrahedralization + XML write of the same volume (bench/peer_vtk_full_mesh.py
+// with /usr/bin/python3, when its vtk module imports; u8 volumes), as tets/s.
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -165,6 +173,24 @@ int child_memory_query(const std::string& raw, const std::string& dims, const st
     return 0;
 }
 
+// --full streamed to a .vtu: from the container, or from the raw volume in memory.
+int child_full(const std::string& from, const std::string& raw_dims, const std::string& out) {
+    const auto t0 = std::chrono::steady_clock::now();
+    auto sink = open_mesh_stream(out, "vtu");
+    TetMeshCounter counted(*sink);
+    LodQuery q;
+    q.full = true;
+    if (raw_dims.empty()) {
+        extract_from_container_to(from, ModelKind::Ht, q, counted).take();
+    } else {
+        LodModel m = build_model(ModelKind::Ht, read_volume_file(from, raw_options(parse_dims(raw_dims), ValueType::U8)).take());
+        m.extract_to(q, counted);
+    }
+    std::printf("%llu %.3f\n", static_cast<unsigned long long>(counted.tets),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    return 0;
+}
+
 std::string mb(double v) {
     char b[32];
     std::snprintf(b, sizeof b, "%.0f MB", v);
@@ -178,10 +204,12 @@ int main(int argc, char** argv) {
     if (a.size() == 5 && a[0] == "--convert") return child_convert(a[1], a[2], a[3], a[4]);
     if (a.size() == 3 && a[0] == "--container-query") return child_container_query(a[1], std::stoi(a[2]));
     if (a.size() == 5 && a[0] == "--memory-query") return child_memory_query(a[1], a[2], a[3], std::stoi(a[4]));
+    if (a.size() == 4 && a[0] == "--full") return child_full(a[1], a[2] == "-" ? "" : a[2], a[3]);
 
     std::vector<int> sizes{129, 257};
     std::vector<Input> inputs;
     std::string dir;
+    int full_max = 257;
     for (std::size_t i = 0; i < a.size(); ++i) {
         if (a[i] == "--sizes" && i + 1 < a.size()) {
             sizes.clear();
@@ -197,8 +225,10 @@ int main(int argc, char** argv) {
             i += 3;
         } else if (a[i] == "--dir" && i + 1 < a.size()) {
             dir = a[++i];
+        } else if (a[i] == "--full-max" && i + 1 < a.size()) {
+            full_max = std::stoi(a[++i]);
         } else {
-            std::fprintf(stderr, "usage: bench_scale [--sizes 129,257,513] [--real FILE.raw X,Y,Z TYPE] [--dir DIR]\n");
+            std::fprintf(stderr, "usage: bench_scale [--sizes 129,257,513] [--real FILE.raw X,Y,Z TYPE] [--dir DIR] [--full-max N]\n");
             return 2;
         }
     }
@@ -252,5 +282,51 @@ int main(int argc, char** argv) {
             std::fflush(stdout);
         }
     }
+
+    // --full to .vtu: tetlod streamed (container, memory) against VTK, tets per second.
+    std::printf("\n--full to .vtu (zlib), end to end: tetlod streamed from the container and from memory | "
+                "VTK vtkDataSetTriangleFilter + vtkXMLUnstructuredGridWriter (zlib)\n");
+    std::printf("%-26s %11s %8s %9s %9s | %8s %9s %9s | %11s %8s %9s | %s\n", "volume", "tets", "time", "Mtets/s",
+                "peak RSS", "time", "Mtets/s", "peak RSS", "VTK tets", "time", "Mtets/s", "tetlod/VTK (container / memory)");
+    const bool vtk = std::system("/usr/bin/python3 -c 'import vtk' >/dev/null 2>&1") == 0;
+    for (std::size_t v = 0; v < all.size(); ++v) {
+        const Input& in = all[v];
+        if (in.type != ValueType::U8 || std::max({in.dims.x, in.dims.y, in.dims.z}) > full_max) continue;
+        const std::string d = std::to_string(in.dims.x) + "," + std::to_string(in.dims.y) + "," + std::to_string(in.dims.z);
+        const std::string out = dir + "/full.vtu";
+        std::filesystem::remove(out);
+        const Child c = run_child({"--full", containers[v], "-", out});
+        std::filesystem::remove(out);
+        const Child m = run_child({"--full", in.raw, d, out});
+        std::filesystem::remove(out);
+        unsigned long long tets = 0, mtets = 0;
+        std::sscanf(c.out.c_str(), "%llu", &tets);
+        std::sscanf(m.out.c_str(), "%llu", &mtets);
+        double vtk_tets = 0, vtk_seconds = 0;
+        if (vtk) {
+            const std::string cmd = "/usr/bin/python3 " + std::string(TETLOD_BENCH_DIR) + "/peer_vtk_full_mesh.py " +
+                                    in.raw + " " + std::to_string(in.dims.x) + " " + std::to_string(in.dims.y) + " " +
+                                    std::to_string(in.dims.z) + " " + out;
+            const auto t0 = std::chrono::steady_clock::now();
+            if (std::FILE* f = popen(cmd.c_str(), "r")) {
+                char line[512] = {};
+                if (std::fgets(line, sizeof line, f)) std::sscanf(line, "VTK: %lf tets", &vtk_tets);
+                pclose(f);
+            }
+            vtk_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            std::filesystem::remove(out);
+        }
+        const double rate_c = double(tets) / c.seconds / 1e6, rate_m = double(mtets) / m.seconds / 1e6;
+        const double rate_v = vtk_tets > 0 ? vtk_tets / vtk_seconds / 1e6 : 0;
+        char ratio[48] = "n/a (no vtk)";
+        if (rate_v > 0) std::snprintf(ratio, sizeof ratio, "%.2fx / %.2fx", rate_c / rate_v, rate_m / rate_v);
+        std::printf("%-26s %11llu %7.2fs %9.2f %9s | %7.2fs %9.2f %9s | %11.0f %7.2fs %9.2f | %s%s\n",
+                    in.name.c_str(), tets, c.seconds, rate_c, mb(c.peak_mb).c_str(), m.seconds, rate_m,
+                    mb(m.peak_mb).c_str(), vtk_tets, vtk_seconds, rate_v, ratio,
+                    c.status != 0 || m.status != 0 ? "  FAILED" : "");
+        std::fflush(stdout);
+    }
+    std::printf("(VTK's times include starting Python and reading the file; tetlod's include starting the process, "
+                "reading, and for memory, building the HT)\n");
     if (!keep) std::filesystem::remove_all(dir);
 }
