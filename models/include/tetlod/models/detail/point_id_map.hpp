@@ -33,7 +33,9 @@ public:
 
     /// Stores v at p (replacing a previous value).
     void put(const Point& p, uint32_t v) {
-        if (2 * (size_ + 1) > keys_.size()) grow();
+        // Grow at 70% load: linear probing stays short (a miss costs about
+        // 6 probes at 0.7) and the table takes 17-34 bytes per entry.
+        if (10 * (size_ + 1) > 7 * keys_.size()) grow();
         const uint64_t k = key(p);
         std::size_t i = slot(k);
         while (keys_[i] != 0 && keys_[i] != k) i = (i + 1) & mask_;
