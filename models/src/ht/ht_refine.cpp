@@ -151,22 +151,22 @@ private:
 /// One hash entry per vertex: id << 1 | split.
 class SparseMarks {
 public:
-    explicit SparseMarks(const Dims&) {}
+    explicit SparseMarks(const Dims& d) : map_(std::max({d.x, d.y, d.z}) - 1) {}
     bool split(const Pt& c) const {
-        const uint32_t* v = map_.find(c);
-        return v && (*v & 1);
+        uint32_t v;
+        return map_.find(c, v) && (v & 1);
     }
     bool split_id(const Pt& c, uint32_t& id) const {
-        const uint32_t* v = map_.find(c);
-        if (!v || !(*v & 1)) return false;
-        id = *v >> 1;
+        uint32_t v;
+        if (!map_.find(c, v) || !(v & 1)) return false;
+        id = v >> 1;
         return true;
     }
     void mark_split(const Pt& c, uint32_t id) { map_.put(c, id << 1 | 1u); }
     void add_corner(const Pt& c, uint32_t id) { map_.put(c, id << 1); }
     uint32_t id(const Pt& p) const {
-        const uint32_t* v = map_.find(p);
-        return v ? *v >> 1 : kNoVertex;
+        uint32_t v;
+        return map_.find(p, v) ? v >> 1 : kNoVertex;
     }
 
 private:

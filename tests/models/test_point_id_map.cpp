@@ -1,0 +1,67 @@
+// The refinement's point table against std::map: random points and values,
+// replacements, misses, growth, the packed layout at every coordinate size,
+// and the switch to the wide layout when a value outgrows the packed field.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+
+#include "tetlod/models/detail/point_id_map.hpp"
+
+using tetlod::detail::PointIdMap;
+
+namespace {
+
+void check(int64_t max_coordinate, uint32_t max_value, int n, unsigned seed) {
+    PointIdMap m(max_coordinate);
+    std::map<PointIdMap::Point, uint32_t> want;
+    std::mt19937_64 rng(seed);
+    auto coord = [&] { return int32_t(rng() % uint64_t(max_coordinate + 1)); };
+    for (int i = 0; i < n; ++i) {
+        const PointIdMap::Point p{coord(), coord(), coord()};
+        const uint32_t v = uint32_t(rng() % (uint64_t(max_value) + 1));
+        m.put(p, v);
+        want[p] = v;
+    }
+    // The corners of the coordinate range too.
+    for (int c = 0; c < 8; ++c) {
+        const PointIdMap::Point p{(c & 1) ? int32_t(max_coordinate) : 0, (c & 2) ? int32_t(max_coordinate) : 0,
+                                  (c & 4) ? int32_t(max_coordinate) : 0};
+        m.put(p, max_value);
+        want[p] = max_value;
+    }
+    ASSERT_EQ(m.size(), want.size());
+    for (const auto& [p, v] : want) {
+        uint32_t got = 0;
+        ASSERT_TRUE(m.find(p, got)) << p[0] << "," << p[1] << "," << p[2];
+        ASSERT_EQ(got, v);
+    }
+    for (int i = 0; i < n; ++i) {
+        const PointIdMap::Point p{coord(), coord(), coord()};
+        uint32_t got = 0;
+        ASSERT_EQ(m.find(p, got), want.count(p) == 1);
+    }
+}
+
+TEST(PointIdMap, AgreesWithStdMapAtEveryCoordinateSize) {
+    for (int64_t maxc : {int64_t{1}, int64_t{2}, int64_t{3}, int64_t{16}, int64_t{256}, int64_t{1024}, int64_t{2048}, int64_t{65536}, int64_t{1} << 20})
+        for (uint32_t maxv : {1u, 1000u, 0x7FFFFFFFu, 0xFFFFFFFFu}) check(maxc, maxv, 20000, unsigned(maxc + maxv));
+}
+
+TEST(PointIdMap, PackedUntilAValueOutgrowsIt) {
+    PointIdMap m(1024);  // 12 bits per axis: 28 bits for values
+    EXPECT_TRUE(m.packed());
+    for (int32_t i = 0; i < 5000; ++i) m.put({i % 1000, i / 1000, 7}, uint32_t(i));
+    EXPECT_TRUE(m.packed());
+    m.put({5, 5, 5}, uint32_t{1} << 30);
+    EXPECT_FALSE(m.packed());
+    uint32_t v = 0;
+    for (int32_t i = 0; i < 5000; ++i) {
+        ASSERT_TRUE(m.find({i % 1000, i / 1000, 7}, v));
+        ASSERT_EQ(v, uint32_t(i));
+    }
+    ASSERT_TRUE(m.find({5, 5, 5}, v));
+    EXPECT_EQ(v, uint32_t{1} << 30);
+}
+
+}  // namespace
