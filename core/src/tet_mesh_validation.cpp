@@ -1,6 +1,7 @@
 #include "tetlod/core/tet_mesh_validation.hpp"
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/tet_mesh_sink.hpp"
 
 namespace tetlod {
 
@@ -73,6 +74,30 @@ void check_tets(std::span<const std::array<uint32_t, 4>> tets, std::size_t point
                 throw Error(ErrorCode::InvalidArgument, context + ": tet " + std::to_string(first + t) +
                                                             " uses vertex " + std::to_string(v) + " of " +
                                                             std::to_string(points) + " points");
+}
+
+void StreamedTetChecks::presence(std::size_t tets, std::size_t n, int& has) const {
+    if (tets == 0) return;
+    const int now = n == 0 ? 0 : 1;
+    if ((n != 0 && n != tets) || (has >= 0 && has != now))
+        throw Error(ErrorCode::InvalidArgument, context_ + ": level and error must come with every tet or never");
+    has = now;
+}
+
+void StreamedTetChecks::batch(std::span<const std::array<uint32_t, 4>> tets, std::size_t levels,
+                              std::size_t errors) {
+    check_tets(tets, points_, context_, added_);
+    if (added_ + tets.size() > announced_)
+        throw Error(ErrorCode::InvalidArgument, context_ + ": more tets than announced");
+    presence(tets.size(), levels, level_);
+    presence(tets.size(), errors, error_);
+    added_ += tets.size();
+}
+
+void StreamedTetChecks::finish() const {
+    if (added_ != announced_)
+        throw Error(ErrorCode::InvalidArgument, context_ + ": " + std::to_string(added_) + " tets came, " +
+                                                    std::to_string(announced_) + " were announced");
 }
 
 }  // namespace tetlod

@@ -141,16 +141,15 @@ public:
         o_.size(nt_ ? 1 : 0), o_.size(nt_), o_.size(nt_ ? 1 : 0), o_.size(nt_), o_.eol();
         if (nt_) o_.integer(3), o_.integer(1), o_.integer(4), o_.size(nt_), o_.eol();  // type 4: 4-node tet
         o_.drain_to(out_);
+        checks_.begin("cannot write '" + path_ + "'", np_, nt_);
     }
 
     void add(std::span<const std::array<uint32_t, 4>> tets, std::span<const uint8_t> level,
              std::span<const float> error) override {
-        const std::string context = "cannot write '" + path_ + "'";
-        check_tets(tets, np_, context, added_);
-        if (added_ + tets.size() > nt_) throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
-        cells_.check(tets.size(), level.size(), error.size(), context);
+        const uint64_t first = checks_.added();
+        checks_.batch(tets, level.size(), error.size());
         for (std::size_t i = 0; i < tets.size(); ++i) {
-            o_.size(added_ + i + 1);
+            o_.size(first + i + 1);
             for (uint32_t v : tets[i]) o_.size(uint64_t(v) + 1);
             o_.eol();
             o_.drain_to(out_, kDrainBytes);
@@ -158,18 +157,15 @@ public:
         o_.drain_to(out_);
         level_.write(level.data(), level.size_bytes());
         error_.write(error.data(), error.size_bytes());
-        added_ += tets.size();
     }
 
     void finish() override {
-        if (added_ != nt_)
-            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " + std::to_string(added_) +
-                                                        " tets came, " + std::to_string(nt_) + " were announced");
+        checks_.finish();
         o_.end("Elements");
         o_.drain_to(out_);
         node_data_.copy_to(out_);
-        if (cells_.level()) element_view<uint8_t>("level", level_);
-        if (cells_.error()) element_view<float>("error", error_);
+        if (checks_.level()) element_view<uint8_t>("level", level_);
+        if (checks_.error()) element_view<float>("error", error_);
         out_.commit();
     }
 
@@ -198,8 +194,8 @@ private:
     MshOut o_;
     SpillFile node_data_, level_, error_;
     std::size_t np_ = 0;
-    uint64_t nt_ = 0, added_ = 0;
-    CellDataPresence cells_;
+    uint64_t nt_ = 0;
+    StreamedTetChecks checks_;
 };
 
 }  // namespace

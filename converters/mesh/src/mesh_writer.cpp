@@ -60,18 +60,16 @@ public:
         check_output(path_);  // refuse before any work, as the streaming writers do
     }
     void begin(const TetMesh& v, uint64_t n) override {
-        announced_ = n;
+        checks_.begin("cannot write '" + path_ + "'", v.points.size(), n);
         collect_.begin(v, n);
     }
     void add(std::span<const std::array<uint32_t, 4>> t, std::span<const uint8_t> l,
              std::span<const float> e) override {
+        checks_.batch(t, l.size(), e.size());
         collect_.add(t, l, e);
     }
     void finish() override {
-        if (collect_.mesh.tets.size() != announced_)
-            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " +
-                                                        std::to_string(collect_.mesh.tets.size()) + " tets came, " +
-                                                        std::to_string(announced_) + " were announced");
+        checks_.finish();
         f_.write(collect_.mesh, path_, o_);
     }
 
@@ -80,7 +78,7 @@ private:
     std::string path_;
     MeshWriteOptions o_;
     TetMeshCollector collect_;
-    uint64_t announced_ = 0;
+    StreamedTetChecks checks_;
 };
 
 }  // namespace

@@ -114,14 +114,12 @@ public:
         });
         buf.drain_to(values_);
         out_.write("CELLS " + std::to_string(nt_) + " " + std::to_string(5 * nt_) + "\n");
+        checks_.begin("cannot write '" + path_ + "'", np_, nt_);
     }
 
     void add(std::span<const std::array<uint32_t, 4>> tets, std::span<const uint8_t> level,
              std::span<const float> error) override {
-        const std::string context = "cannot write '" + path_ + "'";
-        check_tets(tets, np_, context, added_);
-        if (added_ + tets.size() > nt_) throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
-        cells_.check(tets.size(), level.size(), error.size(), context);
+        checks_.batch(tets, level.size(), error.size());
         BigEndianBuffer buf;
         for (const auto& t : tets) {
             buf.put(int32_t{4});
@@ -132,13 +130,10 @@ public:
         buf.drain_to(level_);
         for (float v : error) buf.put(v);
         buf.drain_to(error_);
-        added_ += tets.size();
     }
 
     void finish() override {
-        if (added_ != nt_)
-            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " + std::to_string(added_) +
-                                                        " tets came, " + std::to_string(nt_) + " were announced");
+        checks_.finish();
         out_.write(std::string_view("\n"));
         out_.write("CELL_TYPES " + std::to_string(nt_) + "\n");
         BigEndianBuffer buf;
@@ -152,15 +147,15 @@ public:
         out_.write(std::string_view("\n"));
         // Cell arrays go in one FIELD block: VTK's legacy reader loads only the first
         // SCALARS of a section unless told ReadAllScalarsOn(), but every FIELD array.
-        const int arrays = int{cells_.level()} + int{cells_.error()};
+        const int arrays = int{checks_.level()} + int{checks_.error()};
         if (arrays > 0) {
             out_.write("CELL_DATA " + std::to_string(nt_) + "\nFIELD FieldData " + std::to_string(arrays) + "\n");
-            if (cells_.level()) {
+            if (checks_.level()) {
                 out_.write("level 1 " + std::to_string(nt_) + " unsigned_char\n");
                 level_.copy_to(out_);
                 out_.write(std::string_view("\n"));
             }
-            if (cells_.error()) {
+            if (checks_.error()) {
                 out_.write("error 1 " + std::to_string(nt_) + " float\n");
                 error_.copy_to(out_);
                 out_.write(std::string_view("\n"));
@@ -175,8 +170,8 @@ private:
     SpillFile values_, level_, error_;
     std::string point_data_header_;
     std::size_t np_ = 0;
-    uint64_t nt_ = 0, added_ = 0;
-    CellDataPresence cells_;
+    uint64_t nt_ = 0;
+    StreamedTetChecks checks_;
 };
 
 }  // namespace

@@ -246,6 +246,7 @@ public:
         np_ = v.points.size();
         nt_ = tet_count;
         name_ = xml_escape(v.field_name);
+        checks_.begin("cannot write '" + path_ + "'", np_, nt_);
         wide_ = 4 * nt_ > uint64_t(std::numeric_limits<int32_t>::max());
         const char* id_type = wide_ ? "Int64" : "Int32";
         auto array = [&](std::string attrs) { return std::make_unique<StreamArray>(std::move(attrs), path_, opt_); };
@@ -280,23 +281,17 @@ public:
 
     void add(std::span<const std::array<uint32_t, 4>> tets, std::span<const uint8_t> level,
              std::span<const float> error) override {
-        const std::string context = "cannot write '" + path_ + "'";
-        check_tets(tets, np_, context, added_);
-        if (added_ + tets.size() > nt_)
-            throw Error(ErrorCode::InvalidArgument, context + ": more tets than announced");
-        cells_.check(tets.size(), level.size(), error.size(), context);
-        if (wide_) push_cells<int64_t>(tets); else push_cells<int32_t>(tets);
+        const uint64_t first = checks_.added();
+        checks_.batch(tets, level.size(), error.size());
+        if (wide_) push_cells<int64_t>(tets, first); else push_cells<int32_t>(tets, first);
         level_->push_values(level);
         error_->push_values(error);
         const std::vector<uint8_t> types(tets.size(), uint8_t{10});  // VTK_TETRA
         types_->push_values(std::span<const uint8_t>(types));
-        added_ += tets.size();
     }
 
     void finish() override {
-        if (added_ != nt_)
-            throw Error(ErrorCode::InvalidArgument, "cannot write '" + path_ + "': " + std::to_string(added_) +
-                                                        " tets came, " + std::to_string(nt_) + " were announced");
+        checks_.finish();
         for (StreamArray* a : all()) a->close();
         std::ostringstream xml;
         uint64_t offset = 0;
@@ -317,8 +312,8 @@ public:
             << "    <Piece NumberOfPoints=\"" << np_ << "\" NumberOfCells=\"" << nt_ << "\">\n";
         section("PointData", " Scalars=\"" + name_ + "\"", {values_.get()});
         std::vector<StreamArray*> cell_arrays;
-        if (cells_.level()) cell_arrays.push_back(level_.get());
-        if (cells_.error()) cell_arrays.push_back(error_.get());
+        if (checks_.level()) cell_arrays.push_back(level_.get());
+        if (checks_.error()) cell_arrays.push_back(error_.get());
         xml << "      <CellData" << (cell_arrays.empty() ? "" : " Scalars=\"level\"") << ">\n";
         for (StreamArray* a : cell_arrays) {
             xml << "        <DataArray " << a->attributes() << " format=\"appended\" offset=\"" << offset << "\"/>\n";
@@ -330,7 +325,7 @@ public:
         xml << "    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _";
         out_.write(xml.str());
         for (StreamArray* a : all())
-            if ((a != level_.get() || cells_.level()) && (a != error_.get() || cells_.error())) a->write_to(out_);
+            if ((a != level_.get() || checks_.level()) && (a != error_.get() || checks_.error())) a->write_to(out_);
         out_.write(std::string_view("\n  </AppendedData>\n</VTKFile>\n"));
         out_.commit();
     }
@@ -342,11 +337,11 @@ private:
     }
 
     template <class I>
-    void push_cells(std::span<const std::array<uint32_t, 4>> tets) {
+    void push_cells(std::span<const std::array<uint32_t, 4>> tets, uint64_t first) {
         std::vector<I> conn(4 * tets.size()), offs(tets.size());
         for (std::size_t i = 0; i < tets.size(); ++i) {
             for (int k = 0; k < 4; ++k) conn[4 * i + k] = static_cast<I>(tets[i][k]);
-            offs[i] = static_cast<I>(4 * (added_ + i + 1));
+            offs[i] = static_cast<I>(4 * (first + i + 1));
         }
         connectivity_->push_values(std::span<const I>(conn));
         offsets_->push_values(std::span<const I>(offs));
@@ -357,9 +352,9 @@ private:
     AtomicFile out_;
     std::string name_;
     std::size_t np_ = 0;
-    uint64_t nt_ = 0, added_ = 0;
+    uint64_t nt_ = 0;
     bool wide_ = false;
-    CellDataPresence cells_;
+    StreamedTetChecks checks_;
     std::unique_ptr<StreamArray> values_, level_, error_, points_, connectivity_, offsets_, types_;
 };
 

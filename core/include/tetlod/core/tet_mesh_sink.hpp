@@ -28,26 +28,28 @@ public:
     virtual void finish() = 0;
 };
 
-/// For streaming writers: a mesh has per-tet level (and error) for every tet or
-/// for none (a TetMesh may lack them); the batches must agree.
-class CellDataPresence {
+/// What every streaming writer checks of the parts it is given: tets use
+/// existing vertices, no more tets come than begin() announced and exactly
+/// that many by finish(), and level (and error) come for every tet or for none
+/// (a TetMesh may lack them). Each check throws InvalidArgument "<context>: ...".
+class StreamedTetChecks {
 public:
-    /// Throws InvalidArgument "<context>: ..." when a batch disagrees.
-    void check(std::size_t tets, std::size_t levels, std::size_t errors, const std::string& context) {
-        one(tets, levels, level_, context);
-        one(tets, errors, error_, context);
+    void begin(std::string context, std::size_t points, uint64_t announced) {
+        context_ = std::move(context);
+        points_ = points;
+        announced_ = announced;
     }
+    void batch(std::span<const std::array<uint32_t, 4>> tets, std::size_t levels, std::size_t errors);
+    void finish() const;
+    uint64_t added() const { return added_; }  // before the batch being checked: its first tet's index
     bool level() const { return level_ == 1; }
     bool error() const { return error_ == 1; }
 
 private:
-    static void one(std::size_t tets, std::size_t n, int& has, const std::string& context) {
-        if (tets == 0) return;
-        const int now = n == 0 ? 0 : 1;
-        if ((n != 0 && n != tets) || (has >= 0 && has != now))
-            throw Error(ErrorCode::InvalidArgument, context + ": level and error must come with every tet or never");
-        has = now;
-    }
+    void presence(std::size_t tets, std::size_t n, int& has) const;
+    std::string context_;
+    std::size_t points_ = 0;
+    uint64_t announced_ = 0, added_ = 0;
     int level_ = -1, error_ = -1;  // unknown until a tet comes
 };
 
