@@ -56,6 +56,25 @@ void SpillFile::read_back(const std::function<void(const std::byte*, std::size_t
     std::fseek(file_, 0, SEEK_END);
 }
 
+void SpillFile::read_range(uint64_t offset, uint64_t size,
+                           const std::function<void(const std::byte*, std::size_t)>& piece) {
+    if (offset > size_ || size > size_ - offset || std::fflush(file_) != 0)
+        throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
+    std::vector<std::byte> buf(std::size_t(std::min<uint64_t>(size, uint64_t{1} << 20)));
+    const int fd = ::fileno(file_);
+    while (size > 0) {
+        const std::size_t n = std::size_t(std::min<uint64_t>(size, buf.size()));
+        const ssize_t got = ::pread(fd, buf.data(), n, off_t(offset));
+        if (got <= 0) {
+            if (got < 0 && errno == EINTR) continue;
+            throw Error(ErrorCode::IoError, "cannot read back a temporary file for '" + near_ + "'");
+        }
+        piece(buf.data(), std::size_t(got));
+        offset += uint64_t(got);
+        size -= uint64_t(got);
+    }
+}
+
 void SpillFile::copy_to(AtomicFile& out) {
     read_back([&](const std::byte* d, std::size_t n) { out.write(d, n); });
 }

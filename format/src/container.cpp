@@ -254,7 +254,21 @@ void ContainerWriter::add_stored(uint32_t type, uint32_t flags, uint32_t arg0, u
     s.arg1 = arg1;
     s.checksum = checksum64(stored);
     sections_.push_back(s);
-    payloads_.push_back(std::move(stored));
+    payloads_.push_back(Payload{std::move(stored), nullptr, 0});
+}
+
+void ContainerWriter::add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, SpillFile& spill,
+                                  uint64_t offset, uint64_t stored_size, uint64_t raw_size, uint64_t checksum) {
+    SectionInfo s;
+    s.type = type;
+    s.flags = flags;
+    s.stored_size = stored_size;
+    s.raw_size = raw_size;
+    s.arg0 = arg0;
+    s.arg1 = arg1;
+    s.checksum = checksum;
+    sections_.push_back(s);
+    payloads_.push_back(Payload{{}, &spill, offset});
 }
 
 void ContainerWriter::add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
@@ -296,7 +310,12 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
 
 std::vector<std::byte> ContainerWriter::finish() const {
     std::vector<std::byte> out = head_bytes();
-    for (const auto& p : payloads_) out.insert(out.end(), p.begin(), p.end());
+    for (std::size_t i = 0; i < payloads_.size(); ++i) {
+        const Payload& p = payloads_[i];
+        if (!p.spill) out.insert(out.end(), p.bytes.begin(), p.bytes.end());
+        else p.spill->read_range(p.offset, sections_[i].stored_size,
+                                 [&](const std::byte* d, std::size_t n) { out.insert(out.end(), d, d + n); });
+    }
     return out;
 }
 
@@ -304,7 +323,12 @@ void ContainerWriter::write(const std::string& path) const {
     AtomicFile f(path);
     std::vector<std::byte> head = head_bytes();
     f.write(head.data(), head.size());
-    for (const auto& p : payloads_) f.write(p.data(), p.size());
+    for (std::size_t i = 0; i < payloads_.size(); ++i) {
+        const Payload& p = payloads_[i];
+        if (!p.spill) f.write(p.bytes.data(), p.bytes.size());
+        else p.spill->read_range(p.offset, sections_[i].stored_size,
+                                 [&](const std::byte* d, std::size_t n) { f.write(d, n); });
+    }
     f.commit();
 }
 

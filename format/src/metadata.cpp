@@ -121,13 +121,15 @@ Expected<Metadata> parse_metadata(std::span<const std::byte> raw) {
     return m;
 }
 
-Metadata metadata_for_volume(const Volume& v) {
+Metadata metadata_for_volume(const Volume& v) { return metadata_for_volume(v, v.range()); }
+
+Metadata metadata_for_volume(const Volume& v, std::array<double, 2> range) {
     Metadata m;
     m.dims = v.dims;
     m.type = v.type;
     m.spacing = v.spacing;
     m.origin = v.origin;
-    m.value_range = v.range();
+    m.value_range = range;
     m.format_keys[kKeyFieldName] = v.field_name;
     if (!v.units.empty()) m.format_keys[kKeyFieldUnits] = v.units;
     m.user_keys = v.metadata;

@@ -3,30 +3,13 @@
 #include <tbb/parallel_for.h>
 
 #include "ht_chunk_geometry.hpp"
+#include "ht_container_parts.hpp"
 #include "ht_error_chunk_coder.hpp"
 #include "ht_field_chunk_coder.hpp"
 
 namespace tetlod {
 
 using namespace ht_detail;
-
-namespace {
-
-std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
-    std::vector<std::byte> h;
-    tlod::put_u8(h, uint8_t(d.k));
-    tlod::put_u8(h, d.padded ? 1 : 0);
-    tlod::put_u8(h, uint8_t(g));
-    tlod::put_u8(h, uint8_t(m));
-    tlod::put_u8(h, kPredictorNeighbours);
-    tlod::put_u8(h, kResidualRangeCoder);
-    tlod::put_u16(h, 0);
-    for (int a = 0; a < 3; ++a) tlod::put_u32(h, uint32_t(d.box_max[a]));
-    tlod::put_u32(h, 0);
-    return h;
-}
-
-}  // namespace
 
 void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
                const HtEncodeOptions& o) {
@@ -42,22 +25,11 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     const std::vector<HtChunk> chunks = chunk_list(G);
     const int m = o.error_mantissa_bits;
 
-    // Informative summary of the stored error bounds (spec §5.3), so `info`
-    // reports them without decoding any chunk.
     tlod::Metadata md = meta;
     {
-        float emax = 0;
-        uint64_t always = 0;
-        const auto& e = model.diamond_errors();
-        for (float v : e) {
-            const float q = dequantize_error(quantize_error(v, m), m);
-            if (std::isinf(q)) ++always;
-            else emax = std::max(emax, q);
-        }
-        char buf[64];
-        std::snprintf(buf, sizeof buf, "%.9g", double(emax));
-        md.format_keys[tlod::kKeyHtErrorMax] = buf;
-        md.format_keys[tlod::kKeyHtAlwaysSplit] = std::to_string(always);
+        ErrorSummary summary;
+        for (float v : model.diamond_errors()) summary.add(v, m);
+        summary.write_to(md);
     }
     writer.set_features(tlod::kFeatureHt);
     writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),

@@ -29,6 +29,9 @@ public:
     /// Reads everything written so far back, in pieces of at most 1 MiB (a
     /// multiple of 8 bytes, so values never straddle two pieces).
     void read_back(const std::function<void(const std::byte* data, std::size_t size)>& piece);
+    /// Reads bytes [offset, offset + size) back in pieces of at most 1 MiB.
+    void read_range(uint64_t offset, uint64_t size,
+                    const std::function<void(const std::byte* data, std::size_t size)>& piece);
 
 private:
     std::string near_;

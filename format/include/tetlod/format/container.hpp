@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/spill_file.hpp"
 
 namespace tetlod::tlod {
 
@@ -154,6 +155,11 @@ public:
     /// in parallel by the caller with zstd_compress); flags must say how.
     void add_stored(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
                     std::vector<std::byte> stored, uint64_t raw_size);
+    /// Appends a section whose stored bytes a streaming encoder wrote to
+    /// `spill` at `offset` (sections larger than memory stay on disk until
+    /// write() copies them); `spill` must outlive finish() and write().
+    void add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, SpillFile& spill,
+                     uint64_t offset, uint64_t stored_size, uint64_t raw_size, uint64_t checksum);
     /// Compresses `raw` with zstd at `level` and appends it.
     void add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
              std::span<const std::byte> raw, int level);
@@ -167,7 +173,12 @@ private:
     std::vector<std::byte> head_bytes() const;
     Header header_;
     std::vector<SectionInfo> sections_;
-    std::vector<std::vector<std::byte>> payloads_;
+    struct Payload {
+        std::vector<std::byte> bytes;
+        SpillFile* spill = nullptr;  // else the bytes are at [offset, offset + stored size) of it
+        uint64_t offset = 0;
+    };
+    std::vector<Payload> payloads_;
 };
 
 }  // namespace tetlod::tlod

@@ -54,5 +54,8 @@ Expected<Metadata> parse_metadata(std::span<const std::byte> raw);
 
 /// Metadata describing a volume (keys from volume.metadata become user keys).
 Metadata metadata_for_volume(const Volume& v);
+/// The same for a volume known by its header and value range only (one read
+/// plane by plane; `header.data` is not looked at).
+Metadata metadata_for_volume(const Volume& header, std::array<double, 2> range);
 
 }  // namespace tetlod::tlod

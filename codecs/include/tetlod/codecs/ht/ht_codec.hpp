@@ -14,6 +14,7 @@
 #include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/volume_planes.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 
@@ -37,6 +38,44 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
 /// encode_ht + atomic write. Throws tetlod::Error.
 void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
                         const HtEncodeOptions& options = {});
+
+/// Out-of-core conversion: the HT container of a volume read plane by plane.
+struct HtStreamEncodeOptions {
+    HtEncodeOptions encode;  // its progress callback is not used: see `progress`
+    /// Embed the data in the enclosing (2^k+1)^3 cube (HtBuildOptions::pad).
+    bool pad = false;
+    /// Memory the encoder plans for, in bytes (its peak, buffers and
+    /// bookkeeping; the program itself comes on top). The slab height adapts;
+    /// when even one plane at a time does not fit, TooLarge says how much is needed.
+    std::size_t memory_bytes = std::size_t{1} << 30;
+    /// Planes per slab, 1..1024; 0: the largest power of two up to 64 that fits
+    /// the budget. Any height gives the same bytes; higher ones amortise the
+    /// per-slab work of the large diamonds and feed more threads.
+    int slab_planes = 0;
+    /// Called from the calling thread as (stage, done, total): "scan" over the
+    /// planes (range, coarse lattice), then "encode" over the planes.
+    std::function<void(const char* stage, uint64_t done, uint64_t total)> progress;
+};
+
+struct HtStreamEncodeSummary {
+    HtDomain domain;
+    std::array<double, 2> range{0, 0};
+    int slab_planes = 0;            // planes per slab chosen for the budget
+    std::size_t planned_bytes = 0;  // the encoder's planned peak
+    uint64_t chunks = 0;
+};
+
+/// Writes the container of the HT of `source` to `path` atomically ("-":
+/// standard output), reading the volume twice, plane by plane, in memory
+/// bounded by options.memory_bytes rather than by the volume. The bytes equal
+/// those of write_ht_container(HtModel::build(volume, pad), meta, options.encode).
+/// `meta` describes the source volume; its value range is replaced by the one
+/// read. Chunk payloads wait in a temporary file beside `path`. Throws
+/// tetlod::Error: CorruptData for a non-finite value, TooLarge for a budget
+/// below the minimum, IoError/Truncated from the source or the output.
+HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::Metadata meta,
+                                                   const std::string& path,
+                                                   const HtStreamEncodeOptions& options = {});
 
 /// One chunk of the HT data: the grid points of one cycle inside one brick.
 struct HtChunk {

@@ -1,0 +1,405 @@
+// Out-of-core HT conversion: a volume read plane by plane becomes the same
+// container bytes as the in-memory encoder writes (ht_encode.cpp).
+//
+// Two passes over the planes:
+//  1. scan: the value range (METADATA, the float error slack), finiteness, and
+//     the field on the coarse lattice the error sweep needs (HtErrorSweep).
+//  2. sweep: slabs of S planes in a window reaching HtErrorSweep::kReach
+//     further on each side. Each slab's planes feed, per cycle t, a buffer of
+//     the lattice of spacing 2^t over the planes of the current row of bricks
+//     (grown by 2^t, as a chunk's coders read); the sweep writes the errors
+//     of its centres there. Once the sweep has passed a row's last plane plus
+//     2^t, the row's chunks are encoded (in parallel, in that window) and
+//     their bytes spilled to a temporary file beside the output.
+// The file is then assembled in the container's order (coarse cycles first),
+// copying the chunk bytes from the spill.
+//
+// Memory: the window (S + 2 * kReach planes), the row buffers (about
+// 2^(brick_log2 + 1) + 3 + S planes of value and float error for cycle 0, a
+// quarter of that for cycle 1, ...) and the sweep's coarse state.
+#include <tbb/parallel_for.h>
+
+#include <cstring>
+
+#include "ht_chunk_geometry.hpp"
+#include "ht_container_parts.hpp"
+#include "ht_error_chunk_coder.hpp"
+#include "ht_field_chunk_coder.hpp"
+#include "tetlod/models/ht/ht_error_sweep.hpp"
+
+namespace tetlod {
+
+using namespace ht_detail;
+
+namespace {
+
+constexpr int64_t kReach = HtErrorSweep::kReach;
+/// Memory kept back from the budget for what the plan does not count
+/// (program, thread stacks, allocator slack, the coders' scratch).
+constexpr std::size_t kUnplannedBytes = std::size_t{48} << 20;
+
+/// Planes of the data box B: the source's planes, extended to the cube by
+/// repeating the nearest sample when padding (as HtModel::build pads).
+class BoxPlanes {
+public:
+    BoxPlanes(VolumePlanes& src, const HtDomain& d)
+        : src_(src), sd_(src.header().dims), vs_(value_size(src.header().type)),
+          bx_(int64_t(d.box_max[0]) + 1), by_(int64_t(d.box_max[1]) + 1) {}
+
+    std::size_t plane_bytes() const { return std::size_t(bx_ * by_) * vs_; }
+
+    void read(int64_t z0, int64_t n, std::byte* dst) {
+        if (bx_ == sd_.x && by_ == sd_.y && z0 + n <= sd_.z) {
+            src_.read(z0, n, dst);
+            return;
+        }
+        source_plane_.resize(std::size_t(sd_.x * sd_.y) * vs_);
+        for (int64_t i = 0; i < n; ++i) {
+            src_.read(std::min(z0 + i, sd_.z - 1), 1, source_plane_.data());
+            std::byte* out = dst + std::size_t(i) * plane_bytes();
+            for (int64_t y = 0; y < by_; ++y) {
+                const std::byte* row = source_plane_.data() + std::size_t(std::min(y, sd_.y - 1) * sd_.x) * vs_;
+                std::byte* o = out + std::size_t(y * bx_) * vs_;
+                std::memcpy(o, row, std::size_t(sd_.x) * vs_);
+                for (int64_t x = sd_.x; x < bx_; ++x)
+                    std::memcpy(o + std::size_t(x) * vs_, row + std::size_t(sd_.x - 1) * vs_, vs_);
+            }
+        }
+    }
+
+private:
+    VolumePlanes& src_;
+    Dims sd_;
+    std::size_t vs_;
+    int64_t bx_, by_;
+    std::vector<std::byte> source_plane_;
+};
+
+/// Where one chunk's two sections lie in the spill file.
+struct SpilledChunk {
+    uint64_t field_offset = 0, field_size = 0, field_checksum = 0;
+    uint64_t error_offset = 0, error_size = 0, error_checksum = 0;
+};
+
+template <class T>
+class StreamEncoder final : public HtErrorPlaneSink {
+public:
+    StreamEncoder(VolumePlanes& source, const HtDomain& d, const HtStreamEncodeOptions& o, const std::string& path)
+        : d_(d), o_(o), m_(o.encode.error_mantissa_bits), planes_(source, d),
+          G_(geometry_of(d, o.encode.brick_log2)), chunks_(chunk_list(G_)), path_(path), spill_(path) {
+        zmax_ = d.box_max[2];
+        // First index in chunks_ of each cycle (file order: cycle k first).
+        first_.assign(std::size_t(d.k) + 1, 0);
+        for (std::size_t i = chunks_.size(); i-- > 0;) first_[std::size_t(chunks_[i].cycle)] = i;
+        spilled_.resize(chunks_.size());
+    }
+
+    HtStreamEncodeSummary run(tlod::Metadata meta) {
+        HtStreamEncodeSummary summary;
+        summary.domain = d_;
+        std::vector<std::byte> coarse = scan(summary.range);
+        HtErrorSweep sweep(d_, meta.type, summary.range, std::move(coarse));
+        summary.slab_planes = int(plan_slab(sweep.memory_bytes(), summary.planned_bytes));
+        summary.chunks = chunks_.size();
+        encode_all(sweep, summary.slab_planes);
+        meta.value_range = summary.range;
+        assemble(meta);
+        return summary;
+    }
+
+    float* error_plane(int t, int64_t z) override {
+        Rows& r = rows_[std::size_t(t)];
+        const int64_t p = (z - r.wlo) >> t;
+        if (z < r.wlo || p >= r.cap_planes || r.errors.empty())
+            throw Error(ErrorCode::InvalidArgument, "HT streaming encoder: error plane outside its window");
+        return r.errors.data() + std::size_t(p * r.plane_points);
+    }
+
+private:
+    /// Cycle t's buffer: the lattice of spacing 2^t on planes wlo, wlo + 2^t, ...
+    /// covering the current row of bricks grown by 2^t and what later slabs added.
+    struct Rows {
+        int t = 0;
+        int64_t h = 1, side = 1;
+        int64_t row = 0, nrows = 0;
+        int64_t nx = 0, ny = 0, plane_points = 0, cap_planes = 0;
+        int64_t wlo = 0;
+        std::vector<T> values;
+        std::vector<float> errors;  // cycles with diamonds only
+        Geometry window;            // the coders' view of the buffer
+
+        int64_t row_lo() const { return row * side; }
+        int64_t row_hi(int64_t zmax) const { return std::min(zmax, (row + 1) * side - 1); }
+    };
+
+    // ---- pass 1 ----
+    std::vector<std::byte> scan(std::array<double, 2>& range) {
+        const Dims cd = HtErrorSweep::coarse_dims(d_);
+        std::vector<std::byte> coarse(std::size_t(cd.count()) * sizeof(T));
+        const Dims sd = planes_.source_dims();
+        std::vector<T> buf;
+        const int64_t per = std::max<int64_t>(1, int64_t((std::size_t{32} << 20) / planes_.plane_bytes()));
+        buf.resize(std::size_t(per) * std::size_t(G_.nx * G_.ny));
+        bool any = false;
+        T lo{}, hi{};
+        for (int64_t z0 = 0; z0 <= zmax_; z0 += per) {
+            const int64_t n = std::min(per, zmax_ + 1 - z0);
+            planes_.read(z0, n, reinterpret_cast<std::byte*>(buf.data()));
+            for (int64_t i = 0; i < n; ++i) {
+                const int64_t z = z0 + i;
+                const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+                if (z < sd.z) {  // range and finiteness over the source's samples
+                    for (int64_t y = 0; y < sd.y; ++y) {
+                        const T* row = plane + y * G_.nx;
+                        for (int64_t x = 0; x < sd.x; ++x) {
+                            const T v = row[x];
+                            if constexpr (std::is_floating_point_v<T>) {
+                                if (!std::isfinite(v))
+                                    throw Error(ErrorCode::CorruptData,
+                                                "the volume holds a non-finite value (" + std::to_string(double(v)) +
+                                                    ") at (" + std::to_string(x) + "," + std::to_string(y) + "," +
+                                                    std::to_string(z) + "); the HT needs finite values everywhere");
+                            }
+                            if (!any) lo = hi = v, any = true;
+                            lo = v < lo ? v : lo;
+                            hi = v > hi ? v : hi;
+                        }
+                    }
+                }
+                constexpr int s = HtErrorSweep::kCoarseShift;
+                if ((z & ((int64_t{1} << s) - 1)) != 0) continue;
+                T* out = reinterpret_cast<T*>(coarse.data()) + std::size_t((z >> s) * cd.y * cd.x);
+                for (int64_t y = 0; y < G_.ny; y += int64_t{1} << s)
+                    for (int64_t x = 0; x < G_.nx; x += int64_t{1} << s)
+                        out[(y >> s) * cd.x + (x >> s)] = plane[y * G_.nx + x];
+            }
+            if (o_.progress) o_.progress("scan", uint64_t(z0 + n), uint64_t(zmax_ + 1));
+        }
+        range = {double(lo), double(hi)};
+        return coarse;
+    }
+
+    // ---- planning ----
+    void set_up_rows(int64_t S) {
+        rows_.assign(std::size_t(d_.k) + 1, Rows{});
+        for (int t = 0; t <= d_.k; ++t) {
+            Rows& r = rows_[std::size_t(t)];
+            r.t = t;
+            r.h = int64_t{1} << t;
+            r.side = G_.side(t);
+            r.nrows = G_.bricks(t)[2];
+            r.nx = (G_.box_max[0] >> t) + 1;
+            r.ny = (G_.box_max[1] >> t) + 1;
+            r.plane_points = r.nx * r.ny;
+            // Planes held: the row grown by h on both sides, plus the slab
+            // that may arrive before the row can be encoded.
+            r.cap_planes = std::min((zmax_ >> t) + 1, r.side / r.h + 3 + (S + r.h - 1) / r.h);
+        }
+    }
+
+    std::size_t planned_bytes(int64_t S, std::size_t sweep_bytes) {
+        set_up_rows(S);
+        std::size_t b = std::size_t(S + 2 * kReach) * planes_.plane_bytes();  // window
+        for (const Rows& r : rows_) {
+            const std::size_t per_point = sizeof(T) + (r.t < d_.k ? sizeof(float) : 0);
+            b += std::size_t(r.cap_planes * r.plane_points) * per_point;
+        }
+        b += sweep_bytes + chunks_.size() * (sizeof(HtChunk) + sizeof(SpilledChunk) + 2 * sizeof(tlod::SectionInfo));
+        return b;
+    }
+
+    int64_t plan_slab(std::size_t sweep_bytes, std::size_t& planned) {
+        const std::size_t budget = o_.memory_bytes > kUnplannedBytes ? o_.memory_bytes - kUnplannedBytes : 0;
+        if (o_.slab_planes > 0) {
+            planned = planned_bytes(o_.slab_planes, sweep_bytes);
+            if (planned <= budget) return o_.slab_planes;
+        } else {
+            for (int64_t S = 64; S >= 1; S /= 2) {
+                planned = planned_bytes(S, sweep_bytes);
+                if (planned <= budget) return S;
+            }
+        }
+        const std::size_t need = (planned + kUnplannedBytes + (std::size_t{1} << 20) - 1) >> 20;
+        throw Error(ErrorCode::TooLarge,
+                    "converting this volume plane by plane needs at least " + std::to_string(need) +
+                        " MiB with bricks of 2^" + std::to_string(o_.encode.brick_log2 + 1) +
+                        " steps (budget " + std::to_string(o_.memory_bytes >> 20) +
+                        " MiB): raise --memory or lower --brick-log2");
+    }
+
+    // ---- pass 2 ----
+    void encode_all(HtErrorSweep& sweep, int64_t S) {
+        set_up_rows(S);
+        for (Rows& r : rows_) {
+            r.values.assign(std::size_t(r.cap_planes * r.plane_points), T{});
+            if (r.t < d_.k) r.errors.assign(std::size_t(r.cap_planes * r.plane_points), 0.0f);
+            reset_window(r);
+        }
+        const std::size_t plane = planes_.plane_bytes();
+        std::vector<std::byte> window(std::size_t(S + 2 * kReach) * plane);
+        int64_t wz0 = 0, wcount = 0;
+        for (int64_t za = 0; za <= zmax_; za += S) {
+            const int64_t zb = std::min(za + S - 1, zmax_);
+            const int64_t need_lo = std::max<int64_t>(0, za - kReach);
+            const int64_t need_hi = std::min(zmax_, zb + kReach);
+            if (need_lo > wz0) {
+                const int64_t drop = std::min(need_lo - wz0, wcount);
+                std::memmove(window.data(), window.data() + std::size_t(drop) * plane,
+                             std::size_t(wcount - drop) * plane);
+                wcount -= drop;
+                wz0 = need_lo;
+            }
+            if (wz0 + wcount - 1 < need_hi) {
+                const int64_t from = wz0 + wcount;
+                planes_.read(from, need_hi - from + 1, window.data() + std::size_t(wcount) * plane);
+                wcount = need_hi - wz0 + 1;
+            }
+            const T* w = reinterpret_cast<const T*>(window.data());
+            for (Rows& r : rows_) take_values(r, w, wz0, za, zb);
+            sweep.process(window.data(), wz0, za, zb, *this);
+            for (Rows& r : rows_)
+                while (r.row < r.nrows && std::min(r.row_hi(zmax_) + r.h, zmax_) <= zb) encode_row(r);
+            if (o_.progress) o_.progress("encode", uint64_t(zb + 1), uint64_t(zmax_ + 1));
+        }
+    }
+
+    void reset_window(Rows& r) {
+        r.wlo = std::max<int64_t>(0, r.row_lo() - r.h);
+        r.window = G_;
+        r.window.shift = r.t;
+        r.window.origin = {0, 0, r.wlo};
+        r.window.nx = r.nx;
+        r.window.ny = r.ny;
+    }
+
+    /// Copies cycle t's lattice points of planes za..zb into its buffer.
+    void take_values(Rows& r, const T* window, int64_t wz0, int64_t za, int64_t zb) {
+        for (int64_t z = (za + r.h - 1) / r.h * r.h; z <= zb; z += r.h) {
+            const int64_t p = (z - r.wlo) >> r.t;
+            if (z < r.wlo || p >= r.cap_planes)
+                throw Error(ErrorCode::InvalidArgument, "HT streaming encoder: value plane outside its window");
+            const T* src = window + std::size_t((z - wz0) * G_.nx * G_.ny);
+            T* dst = r.values.data() + std::size_t(p * r.plane_points);
+            if (r.t == 0) {
+                std::memcpy(dst, src, std::size_t(r.plane_points) * sizeof(T));
+                continue;
+            }
+            for (int64_t y = 0; y < G_.ny; y += r.h)
+                for (int64_t x = 0; x < G_.nx; x += r.h) dst[(y >> r.t) * r.nx + (x >> r.t)] = src[y * G_.nx + x];
+        }
+    }
+
+    /// Encodes the chunks of r's current row, spills them, slides the buffer.
+    void encode_row(Rows& r) {
+        const auto nb = G_.bricks(r.t);
+        const std::size_t per_row = std::size_t(nb[0] * nb[1]);
+        const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
+        std::vector<std::vector<std::byte>> fs(per_row), es(per_row);
+        std::vector<ErrorSummary> sums(per_row);
+        const std::span<const float> errors(r.errors);
+        tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
+            const HtChunk& c = chunks_[base + j];
+            fs[j] = encode_field_chunk_v2<T>(r.window, r.values.data(), c);
+            es[j] = encode_error_chunk_v2<T>(r.window, r.values.data(), errors, c, m_);
+            if (c.diamonds > 0)
+                G_.for_each_point(r.t, c.box, [&](int64_t x, int64_t y, int64_t z) {
+                    sums[j].add(errors[std::size_t(r.window.index(x, y, z))], m_);
+                });
+        });
+        for (std::size_t j = 0; j < per_row; ++j) {
+            SpilledChunk& s = spilled_[base + j];
+            s.field_offset = spill_.size();
+            s.field_size = fs[j].size();
+            s.field_checksum = tlod::checksum64(fs[j]);
+            spill_.write(fs[j].data(), fs[j].size());
+            s.error_offset = spill_.size();
+            s.error_size = es[j].size();
+            s.error_checksum = tlod::checksum64(es[j]);
+            spill_.write(es[j].data(), es[j].size());
+            errors_.merge(sums[j]);
+        }
+        // Slide: the next row's window starts h below it; keep the planes from there.
+        const int64_t old = r.wlo;
+        ++r.row;
+        if (r.row >= r.nrows) {
+            r.values = {};
+            r.errors = {};
+            return;
+        }
+        reset_window(r);
+        const int64_t shift = (r.wlo - old) >> r.t;
+        const std::size_t keep = std::size_t((r.cap_planes - shift) * r.plane_points);
+        const std::size_t from = std::size_t(shift * r.plane_points);
+        std::memmove(r.values.data(), r.values.data() + from, keep * sizeof(T));
+        if (!r.errors.empty()) std::memmove(r.errors.data(), r.errors.data() + from, keep * sizeof(float));
+    }
+
+    void assemble(const tlod::Metadata& meta) {
+        tlod::Metadata md = meta;
+        errors_.write_to(md);
+        tlod::ContainerWriter w;
+        w.set_features(tlod::kFeatureHt);
+        w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
+              o_.encode.zstd_level);
+        const auto hh = ht_header_bytes(d_, o_.encode.brick_log2, m_);
+        w.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
+        for (std::size_t i = 0; i < chunks_.size(); ++i) {
+            const HtChunk& c = chunks_[i];
+            const SpilledChunk& s = spilled_[i];
+            w.add_spilled(tlod::kSectionHtField, tlod::kSectionCritical, uint32_t(c.cycle), c.brick, spill_,
+                          s.field_offset, s.field_size, s.field_size, s.field_checksum);
+            w.add_spilled(tlod::kSectionHtErrors, tlod::kSectionCritical, uint32_t(c.cycle), c.brick, spill_,
+                          s.error_offset, s.error_size, s.error_size, s.error_checksum);
+        }
+        w.write(path_);
+    }
+
+    class SourcePlanes {
+    public:
+        SourcePlanes(VolumePlanes& s, const HtDomain& d) : box_(s, d), sd_(s.header().dims) {}
+        std::size_t plane_bytes() const { return box_.plane_bytes(); }
+        void read(int64_t z0, int64_t n, std::byte* dst) { box_.read(z0, n, dst); }
+        Dims source_dims() const { return sd_; }
+
+    private:
+        BoxPlanes box_;
+        Dims sd_;
+    };
+
+    HtDomain d_;
+    const HtStreamEncodeOptions& o_;
+    int m_;
+    SourcePlanes planes_;
+    Geometry G_;
+    std::vector<HtChunk> chunks_;
+    std::vector<std::size_t> first_;
+    std::string path_;
+    SpillFile spill_;
+    std::vector<SpilledChunk> spilled_;
+    std::vector<Rows> rows_;
+    ErrorSummary errors_;
+    int64_t zmax_ = 0;
+};
+
+}  // namespace
+
+HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::Metadata meta,
+                                                   const std::string& path, const HtStreamEncodeOptions& o) {
+    if (o.encode.brick_log2 < 1 || o.encode.brick_log2 > 16)
+        throw Error(ErrorCode::InvalidArgument, "brick_log2 must be in 1..16");
+    if (o.encode.error_mantissa_bits < 0 || o.encode.error_mantissa_bits > 7)
+        throw Error(ErrorCode::InvalidArgument, "error mantissa bits must be in 0..7");
+    if (o.slab_planes < 0 || o.slab_planes > 1024)
+        throw Error(ErrorCode::InvalidArgument, "slab planes must be in 0..1024");
+    const Volume& h = source.header();
+    if (h.type != meta.type || !(h.dims == meta.dims))
+        throw Error(ErrorCode::InvalidArgument, "metadata does not describe the volume");
+    const HtDomain d = HtDomain::for_dims(h.dims, o.pad);
+    return dispatch_value_type(h.type, [&](auto tag) {
+        using T = decltype(tag);
+        StreamEncoder<T> enc(source, d, o, path);
+        return enc.run(std::move(meta));
+    });
+}
+
+}  // namespace tetlod

@@ -1,0 +1,40 @@
+#include "tetlod/core/volume_planes.hpp"
+
+#include <cstring>
+
+#include "tetlod/core/error.hpp"
+
+namespace tetlod {
+
+namespace {
+
+class InMemoryPlanes final : public VolumePlanes {
+public:
+    explicit InMemoryPlanes(const Volume& v) : v_(v) {
+        header_.dims = v.dims;
+        header_.type = v.type;
+        header_.spacing = v.spacing;
+        header_.origin = v.origin;
+        header_.field_name = v.field_name;
+        header_.units = v.units;
+        header_.metadata = v.metadata;
+    }
+    const Volume& header() const override { return header_; }
+    void read(int64_t z0, int64_t count, std::byte* dst) override {
+        if (z0 < 0 || count < 0 || z0 + count > v_.dims.z)
+            throw Error(ErrorCode::InvalidArgument, "planes " + std::to_string(z0) + ".." +
+                                                        std::to_string(z0 + count - 1) + " outside the volume");
+        const std::size_t plane = std::size_t(v_.dims.x * v_.dims.y) * value_size(v_.type);
+        std::memcpy(dst, v_.data.data() + std::size_t(z0) * plane, std::size_t(count) * plane);
+    }
+
+private:
+    const Volume& v_;
+    Volume header_;
+};
+
+}  // namespace
+
+std::unique_ptr<VolumePlanes> planes_of(const Volume& volume) { return std::make_unique<InMemoryPlanes>(volume); }
+
+}  // namespace tetlod

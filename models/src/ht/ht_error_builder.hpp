@@ -1,0 +1,441 @@
+#pragma once
+// Evaluators of exact per-diamond errors (spec/tlod-format.md §2 "Diamond error"; docs/ht.md "Errors").
+//
+// Each level of the HT tiles the cube, so one level costs about one visit per
+// grid point. Two evaluators, chosen per diamond:
+//  - diamonds fully inside the data box use a template precomputed per level
+//    and shape: for the smallest (h <= 4) the grid points of the diamond with
+//    their integer barycentric weights, as linear-index offsets (no per-row
+//    set-up, which would dominate when a tet holds a handful of points); up to
+//    h = 16 the row spans of each tet with the barycentric numerators at each
+//    row's start (no divisions);
+//  - larger or boundary diamonds scan each tet row by row: the integer
+//    barycentric numerators D_i are affine along a row, so the x range inside the
+//    closed tet follows from four divisions, and the interpolant from adds.
+// Errors are compared as |f*D - sum D_i f_i| / D with |D| a power of two: exact
+// for integer data (double or 128-bit accumulators, see compute_diamond_errors).
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cfloat>
+#include <cmath>
+#include <type_traits>
+#include <limits>
+#include <map>
+#include <unordered_map>
+
+#include "tetlod/models/detail/ht_geometry.hpp"
+#include "tet_box.hpp"
+#include "tetlod/core/volume.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::ht::error_detail {
+
+constexpr int32_t kTemplateMaxH = 16;      // span templates up to here
+constexpr int32_t kPointTemplateMaxH = 4;  // point templates up to here (measured best)
+
+inline int64_t floor_div(int64_t a, int64_t b) {  // b > 0
+    int64_t q = a / b;
+    if ((a % b != 0) && (a < 0)) --q;
+    return q;
+}
+inline int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
+
+/// Barycentric numerators D_i(p) = n_i . p + c_i of a positively oriented tet.
+struct Barycentric {
+    int64_t n[4][3];
+    int64_t c[4];
+    int64_t D;
+};
+
+template <class V>
+Barycentric barycentric_of(Tet t, V* f) {
+    Barycentric b;
+    int64_t D = orient(t[0], t[1], t[2], t[3]);
+    if (D < 0) {
+        std::swap(t[2], t[3]);
+        std::swap(f[2], f[3]);
+        D = -D;
+    }
+    b.D = D;
+    const int64_t e[3][3] = {{t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]},
+                             {t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]},
+                             {t[3][0] - t[0][0], t[3][1] - t[0][1], t[3][2] - t[0][2]}};
+    auto cross = [](const int64_t* u, const int64_t* v, int64_t* out) {
+        out[0] = u[1] * v[2] - u[2] * v[1];
+        out[1] = u[2] * v[0] - u[0] * v[2];
+        out[2] = u[0] * v[1] - u[1] * v[0];
+    };
+    // D1 = q.(e2 x e3), D2 = q.(e3 x e1), D3 = q.(e1 x e2), q = p - v0
+    cross(e[1], e[2], b.n[1]);
+    cross(e[2], e[0], b.n[2]);
+    cross(e[0], e[1], b.n[3]);
+    int64_t csum = 0;
+    for (int i = 1; i < 4; ++i) {
+        b.c[i] = -(b.n[i][0] * t[0][0] + b.n[i][1] * t[0][1] + b.n[i][2] * t[0][2]);
+        csum += b.c[i];
+    }
+    for (int a = 0; a < 3; ++a) b.n[0][a] = -(b.n[1][a] + b.n[2][a] + b.n[3][a]);
+    b.c[0] = D - csum;
+    return b;
+}
+
+/// Accumulators: double where every term is exact (|values| * |D| < 2^49), else
+/// 128-bit integers (32-bit integer data, very deep hierarchies).
+template <class Acc>
+Acc abs_value(Acc v) {
+    if constexpr (std::is_same_v<Acc, double>) return std::abs(v);  // branch-free
+    else return v < 0 ? -v : v;
+}
+
+/// Converts a non-negative accumulator to double, rounding up.
+template <class Acc>
+double to_double_up(Acc v) {
+    if constexpr (std::is_same_v<Acc, double>) {
+        return v;
+    } else {
+        double d = double(v);
+        if (Acc(d) < v) d = std::nextafter(d, std::numeric_limits<double>::infinity());
+        return d;
+    }
+}
+
+/// Reorders t to positive orientation (as barycentric_of does) and returns its
+/// barycentric numerators, for templates that keep the vertex order.
+inline Barycentric orient_positive(Tet& t) {
+    double unused[4] = {0, 0, 0, 0};
+    const Barycentric b = barycentric_of(t, unused);
+    if (orient(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+    return b;
+}
+
+template <class T, class Acc>
+class ErrorBuilder {
+public:
+    /// `window` holds the field on the planes z0, z0 + 1, ... of B (x fastest,
+    /// rows of X values, planes of XY): the whole field (z0 = 0) or a slab.
+    ErrorBuilder(const T* window, int64_t z0, int64_t X, int64_t XY, const HtDomain& dom)
+        : f_(window), dom_(dom), z0_(z0), X_(X), XY_(XY) {}
+
+    int64_t index(const Pt& p) const { return (p[2] - z0_) * XY_ + p[1] * X_ + p[0]; }
+
+    /// max |f*D - N| over the closed tet's points, divided by D: scans rows.
+    double scan_tet(const Tet& t) const {
+        Acc fv[4];
+        for (int i = 0; i < 4; ++i) fv[i] = Acc(f_[index(t[i])]);
+        int64_t D = 1;
+        const Acc worst = scan_rows(t, fv, std::numeric_limits<int64_t>::min(),
+                                    std::numeric_limits<int64_t>::max(), D);
+        return to_double_up(worst) / double(D);
+    }
+
+    /// max |f*D - N| over the closed tet's points in planes zlo..zhi (which the
+    /// window must hold), undivided; `fv` the values at t's vertices (they may
+    /// lie outside the window); D receives the tet's |D|. The same arithmetic
+    /// row by row as a whole-tet scan, so maxima over slabs combine exactly.
+    Acc scan_rows(Tet t, Acc fv[4], int64_t zlo, int64_t zhi, int64_t& Dout) const {
+        Barycentric b = barycentric_of(t, fv);
+        Dout = b.D;
+        int32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min({t[0][a], t[1][a], t[2][a], t[3][a]});
+            hi[a] = std::max({t[0][a], t[1][a], t[2][a], t[3][a]});
+        }
+        const Acc D = Acc(b.D);
+        Acc A = 0;  // slope of N along x
+        for (int i = 0; i < 4; ++i) A += Acc(b.n[i][0]) * fv[i];
+        Acc worst = 0;
+        for (int64_t z = std::max<int64_t>(lo[2], zlo); z <= std::min<int64_t>(hi[2], zhi); ++z) {
+            for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+                int64_t x0 = lo[0], x1 = hi[0];
+                Acc Bc = 0;
+                for (int i = 0; i < 4 && x0 <= x1; ++i) {
+                    const int64_t bi = b.n[i][1] * y + b.n[i][2] * z + b.c[i];
+                    const int64_t ai = b.n[i][0];
+                    Bc += Acc(bi) * fv[i];
+                    if (ai > 0) x0 = std::max(x0, ceil_div(-bi, ai));
+                    else if (ai < 0) x1 = std::min(x1, floor_div(bi, -ai));
+                    else if (bi < 0) x1 = x0 - 1;
+                }
+                if (x0 > x1) continue;
+                const T* row = f_ + (z - z0_) * XY_ + y * X_;
+                for (int64_t x = x0; x <= x1; ++x) {
+                    const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
+                    worst = e > worst ? e : worst;
+                }
+            }
+        }
+        return worst;
+    }
+
+    /// Template: the non-vertex grid points of one diamond shape, each with the
+    /// offsets and integer weights of the tet vertices interpolating it.
+    struct Template {
+        struct Entry {
+            int64_t p;
+            int64_t v[4];
+            Acc w[4];
+        };
+        std::vector<Entry> entries;
+        Acc D = 1;
+    };
+
+    Template make_template(const Pt& c, const DiamondInfo& d) const {
+        Template tpl;
+        Tet tets[8];
+        // a representative centre of the same shape far from the cube's faces
+        const int n = diamond_tets(c, d, dom_.L, tets);
+        std::map<int64_t, typename Template::Entry> points;
+        for (int ti = 0; ti < n; ++ti) {
+            Tet t = tets[ti];
+            const Barycentric b = orient_positive(t);
+            tpl.D = Acc(b.D);
+            for (int32_t z = c[2] - d.h; z <= c[2] + d.h; ++z)
+                for (int32_t y = c[1] - d.h; y <= c[1] + d.h; ++y)
+                    for (int32_t x = c[0] - d.h; x <= c[0] + d.h; ++x) {
+                        int64_t w[4];
+                        bool in = true, vertex = false;
+                        for (int i = 0; i < 4; ++i) {
+                            w[i] = b.n[i][0] * x + b.n[i][1] * y + b.n[i][2] * z + b.c[i];
+                            if (w[i] < 0) in = false;
+                            if (w[i] == b.D) vertex = true;
+                        }
+                        if (!in || vertex) continue;
+                        const Pt p{x, y, z};
+                        const int64_t off = index(p) - index(c);
+                        typename Template::Entry e;
+                        e.p = off;
+                        for (int i = 0; i < 4; ++i) {
+                            e.v[i] = index(t[i]) - index(c);
+                            e.w[i] = Acc(w[i]);
+                        }
+                        points.emplace(off, e);  // shared-face points: same value either way
+                    }
+        }
+        for (auto& [off, e] : points) tpl.entries.push_back(e);
+        return tpl;
+    }
+
+    double eval_template(const Template& tpl, int64_t ci) const {
+        const T* base = f_ + ci;
+        Acc worst = 0;
+        for (const auto& e : tpl.entries) {
+            const Acc n = e.w[0] * Acc(base[e.v[0]]) + e.w[1] * Acc(base[e.v[1]]) +
+                          e.w[2] * Acc(base[e.v[2]]) + e.w[3] * Acc(base[e.v[3]]);
+            const Acc err = abs_value(Acc(base[e.p]) * tpl.D - n);
+            worst = err > worst ? err : worst;
+        }
+        return to_double_up(worst) / double(tpl.D);
+    }
+
+    /// Span template: per tet of one diamond shape, the row spans of its grid
+    /// points with the barycentric numerators at each row's x = 0 (relative to the
+    /// centre). Evaluation then costs a few multiply-adds per row and one
+    /// multiply-subtract per point, with no divisions.
+    struct SpanTemplate {
+        struct Span {
+            int64_t row;     // linear offset of (c.x, y, z) from the centre
+            int32_t x0, x1;  // x range relative to the centre, inclusive
+            int64_t b[4];    // D_i at relative x = 0
+        };
+        struct TetSpans {
+            int64_t v[4];  // vertex offsets from the centre
+            int64_t a[4];  // d D_i / dx
+            std::size_t first = 0, count = 0;
+        };
+        std::vector<TetSpans> tets;
+        std::vector<Span> spans;
+        Acc D = 1;
+    };
+
+    SpanTemplate make_span_template(const Pt& c, const DiamondInfo& d) const {
+        SpanTemplate st;
+        Tet tets[8];
+        const int n = diamond_tets(c, d, dom_.L, tets);
+        for (int ti = 0; ti < n; ++ti) {
+            Tet t = tets[ti];
+            const Barycentric b = orient_positive(t);
+            st.D = Acc(b.D);
+            typename SpanTemplate::TetSpans ts;
+            for (int i = 0; i < 4; ++i) {
+                ts.v[i] = index(t[i]) - index(c);
+                ts.a[i] = b.n[i][0];
+            }
+            ts.first = st.spans.size();
+            int32_t lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min({t[0][a], t[1][a], t[2][a], t[3][a]});
+                hi[a] = std::max({t[0][a], t[1][a], t[2][a], t[3][a]});
+            }
+            for (int64_t z = lo[2]; z <= hi[2]; ++z)
+                for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+                    int64_t x0 = lo[0], x1 = hi[0];
+                    typename SpanTemplate::Span sp;
+                    for (int i = 0; i < 4; ++i) {
+                        const int64_t bi = b.n[i][1] * y + b.n[i][2] * z + b.c[i];
+                        const int64_t ai = b.n[i][0];
+                        sp.b[i] = ai * c[0] + bi;
+                        if (ai > 0) x0 = std::max(x0, ceil_div(-bi, ai));
+                        else if (ai < 0) x1 = std::min(x1, floor_div(bi, -ai));
+                        else if (bi < 0) x1 = x0 - 1;
+                    }
+                    if (x0 > x1) continue;
+                    sp.row = (z - c[2]) * XY_ + (y - c[1]) * X_;
+                    sp.x0 = int32_t(x0 - c[0]);
+                    sp.x1 = int32_t(x1 - c[0]);
+                    st.spans.push_back(sp);
+                }
+            ts.count = st.spans.size() - ts.first;
+            st.tets.push_back(ts);
+        }
+        return st;
+    }
+
+    double eval_span_template(const SpanTemplate& st, int64_t ci) const {
+        const T* base = f_ + ci;
+        const Acc D = st.D;
+        Acc worst = 0;
+        for (const auto& ts : st.tets) {
+            Acc fv[4], A = 0;
+            for (int i = 0; i < 4; ++i) {
+                fv[i] = Acc(base[ts.v[i]]);
+                A += Acc(ts.a[i]) * fv[i];
+            }
+            const auto* sp = st.spans.data() + ts.first;
+            for (std::size_t k = 0; k < ts.count; ++k, ++sp) {
+                const Acc Bc = Acc(sp->b[0]) * fv[0] + Acc(sp->b[1]) * fv[1] +
+                               Acc(sp->b[2]) * fv[2] + Acc(sp->b[3]) * fv[3];
+                const T* row = base + sp->row;
+                for (int32_t x = sp->x0; x <= sp->x1; ++x) {
+                    const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
+                    worst = e > worst ? e : worst;
+                }
+            }
+        }
+        return to_double_up(worst) / double(D);
+    }
+
+    double diamond_error(const Pt& c, const DiamondInfo& d) const {
+        Tet tets[8];
+        const int n = diamond_tets(c, d, dom_.L, tets);
+        double err = 0;
+        for (int i = 0; i < n; ++i) {
+            switch (classify_against_data_box(tets[i], dom_.box_max)) {
+                case BoxRelation::Outside: break;
+                case BoxRelation::Crossing: return std::numeric_limits<double>::infinity();
+                case BoxRelation::Inside: err = std::max(err, scan_tet(tets[i])); break;
+            }
+        }
+        return err;
+    }
+
+    /// The templates of one level: indexed by the centre's residues mod 4h
+    /// (they fix the spine directions), built on a representative centre well
+    /// inside the cube. Only offsets are taken from it, never values.
+    struct LevelTemplates {
+        int level = 0;
+        bool use = false, point = false;
+        std::vector<Template> point_templates;
+        std::vector<SpanTemplate> span_templates;
+    };
+
+    LevelTemplates level_templates(int level) const {
+        LevelTemplates lt;
+        lt.level = level;
+        const int cls = level % 3;
+        const int32_t h = int32_t{1} << (dom_.k - 1 - level / 3);
+        lt.use = h <= kTemplateMaxH && 12 * h <= dom_.L;
+        lt.point = h <= kPointTemplateMaxH;
+        if (!lt.use) return lt;
+        (lt.point ? lt.point_templates.resize(64) : lt.span_templates.resize(64));
+        for (int r = 0; r < 64; ++r) {
+            const int rr[3] = {r & 3, (r >> 2) & 3, (r >> 4) & 3};
+            const int odd = (rr[0] & 1) + (rr[1] & 1) + (rr[2] & 1);
+            if (3 - odd != cls) continue;
+            Pt rep{8 * h + rr[0] * h, 8 * h + rr[1] * h, 8 * h + rr[2] * h};
+            const DiamondInfo d = classify_centre(rep, dom_.k);
+            if (lt.point) lt.point_templates[r] = make_template(rep, d);
+            else lt.span_templates[r] = make_span_template(rep, d);
+        }
+        return lt;
+    }
+
+    /// The error (before rounding) of the diamond of lt.level centred at c:
+    /// a template when the diamond lies inside the data box, else a scan. The
+    /// window must hold planes c.z - h .. c.z + h (clipped to B).
+    double error_at(const LevelTemplates& lt, const Pt& c) const {
+        const int32_t h = int32_t{1} << (dom_.k - 1 - lt.level / 3);
+        const auto& m = dom_.box_max;
+        const bool inside = c[0] - h >= 0 && c[1] - h >= 0 && c[2] - h >= 0 && c[0] + h <= m[0] &&
+                            c[1] + h <= m[1] && c[2] + h <= m[2];
+        if (lt.use && inside) {
+            const int key = ((c[0] / h) & 3) | (((c[1] / h) & 3) << 2) | (((c[2] / h) & 3) << 4);
+            return lt.point ? eval_template(lt.point_templates[key], index(c))
+                            : eval_span_template(lt.span_templates[key], index(c));
+        }
+        return diamond_error(c, classify_centre(c, dom_.k));
+    }
+
+    /// Calls f(c) for every centre c of `level` in the data box with c.z in
+    /// zlo..zhi, in parallel over z (one task per plane of centres: f may
+    /// update state of its own centre without locks).
+    template <class F>
+    void for_level_centres(int level, int64_t zlo, int64_t zhi, F&& f) const {
+        const auto& m = dom_.box_max;
+        const int cls = level % 3;
+        const int32_t h = int32_t{1} << (dom_.k - 1 - level / 3);
+        // Centres of this level: coordinates that are odd multiples of h on
+        // 3 - cls axes (the odd set) and multiples of 2h on the others.
+        for (int odd_mask = 1; odd_mask < 8; ++odd_mask) {
+            if (3 - std::popcount(unsigned(odd_mask)) != cls) continue;
+            const int32_t first[3] = {(odd_mask & 1) ? h : 0, (odd_mask & 2) ? h : 0,
+                                      (odd_mask & 4) ? h : 0};
+            if (first[0] > m[0] || first[1] > m[1] || first[2] > m[2]) continue;
+            const int64_t step = 2 * h;
+            const int64_t top = std::min<int64_t>(zhi, m[2]);
+            const int64_t iz0 = zlo <= first[2] ? 0 : (zlo - first[2] + step - 1) / step;
+            const int64_t iz1 = top < first[2] ? -1 : (top - first[2]) / step;
+            if (iz1 < iz0) continue;
+            tbb::parallel_for(iz0, iz1 + 1, [&](int64_t iz) {
+                const int32_t z = int32_t(first[2] + iz * step);
+                for (int32_t y = first[1]; y <= m[1]; y += int32_t(step))
+                    for (int32_t x = first[0]; x <= m[0]; x += int32_t(step)) f(Pt{x, y, z});
+            });
+        }
+    }
+
+    static float round_up(double err, double slack) {
+        if (std::isinf(err)) return std::numeric_limits<float>::infinity();
+        if (err > 0) err += slack;
+        float f = float(err);
+        if (double(f) < err) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+        return f;
+    }
+
+    const HtDomain& domain() const { return dom_; }
+
+private:
+    const T* f_;
+    const HtDomain& dom_;
+    int64_t z0_, X_, XY_;
+};
+
+/// Calls f(Acc tag, slack) with the accumulator exact for the data (see
+/// compute_diamond_errors) and the slack added to float errors.
+template <class T, class F>
+void with_accumulator(const HtDomain& domain, std::array<double, 2> range, F&& f) {
+    if constexpr (std::is_integral_v<T>) {
+        // Integers are evaluated exactly: in double while every term stays below
+        // 2^53 (value bits + 3k + 4 bits), otherwise in 128-bit integers.
+        if (int(8 * sizeof(T)) + 3 * domain.k + 4 <= 53) f(double{}, 0.0);
+        else f(__int128{}, 0.0);
+    } else {
+        // Floats: rounding is unavoidable, so add a slack of a few ulps of the
+        // largest magnitude to keep the stored bound conservative.
+        f(double{}, 64 * DBL_EPSILON * std::max(std::abs(range[0]), std::abs(range[1])));
+    }
+}
+
+}  // namespace tetlod::ht::error_detail

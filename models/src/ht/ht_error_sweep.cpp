@@ -1,0 +1,197 @@
+// Slab-by-slab diamond errors (see ht_error_sweep.hpp): the evaluators of
+// ht_error_builder.hpp over a window of planes.
+#include "tetlod/models/ht/ht_error_sweep.hpp"
+
+#include "ht_error_builder.hpp"
+
+namespace tetlod {
+
+using namespace ht;
+using namespace ht::error_detail;
+
+struct HtErrorSweep::Impl {
+    virtual ~Impl() = default;
+    virtual void process(const std::byte* window, int64_t window_z0, int64_t za, int64_t zb,
+                         HtErrorPlaneSink& sink) = 0;
+    virtual std::size_t memory_bytes() const = 0;
+};
+
+namespace {
+
+template <class T, class Acc>
+class Sweep final : public HtErrorSweep::Impl {
+public:
+    Sweep(const HtDomain& d, double slack, std::vector<std::byte> coarse)
+        : dom_(d), slack_(slack), coarse_(std::move(coarse)), cd_(HtErrorSweep::coarse_dims(d)),
+          X_(int64_t(d.box_max[0]) + 1), XY_(X_ * (int64_t(d.box_max[1]) + 1)) {
+        // Templates hold index offsets only; a builder without data makes them.
+        const ErrorBuilder<T, Acc> eb(nullptr, 0, X_, XY_, dom_);
+        for (int level = 0; level < dom_.max_level(); ++level) {
+            const int t = cycle_of(level);
+            if (t <= kFineMaxCycle) templates_.push_back(eb.level_templates(level));
+            else templates_.emplace_back();
+        }
+        // Running maxima of the large diamonds, per cycle on its lattice.
+        partial_.resize(std::size_t(std::max(0, dom_.k)));
+        next_final_.assign(std::size_t(std::max(0, dom_.k)), 0);
+        for (int t = kFineMaxCycle + 1; t < dom_.k; ++t) {
+            const std::size_t n = std::size_t(lattice(t, 0)) * std::size_t(lattice(t, 1)) *
+                                  std::size_t(lattice(t, 2));
+            partial_[std::size_t(t)].assign(n, Acc(0));
+        }
+    }
+
+    void process(const std::byte* window, int64_t wz0, int64_t za, int64_t zb,
+                 HtErrorPlaneSink& sink) override {
+        const ErrorBuilder<T, Acc> eb(reinterpret_cast<const T*>(window), wz0, X_, XY_, dom_);
+        for (int level = 0; level < dom_.max_level(); ++level) {
+            const int t = cycle_of(level);
+            const int64_t nx = lattice(t, 0);
+            if (t <= kFineMaxCycle) {
+                // Whole diamonds: the window reaches kReach >= h beyond the slab.
+                const auto& lt = templates_[std::size_t(level)];
+                eb.for_level_centres(level, za, zb, [&](const Pt& c) {
+                    float* plane = sink.error_plane(t, c[2]);
+                    plane[(c[1] >> t) * nx + (c[0] >> t)] = eb.round_up(eb.error_at(lt, c), slack_);
+                });
+            } else {
+                const int64_t h = int64_t{1} << t;
+                eb.for_level_centres(level, za - h, zb + h,
+                                     [&](const Pt& c) { accumulate(eb, t, c, za, zb); });
+            }
+        }
+        finish_large(zb, sink);
+    }
+
+    std::size_t memory_bytes() const override {
+        std::size_t b = coarse_.size();
+        for (const auto& p : partial_) b += p.size() * sizeof(Acc);
+        for (const auto& lt : templates_) {
+            for (const auto& tp : lt.point_templates) b += tp.entries.size() * sizeof(tp.entries[0]);
+            for (const auto& st : lt.span_templates)
+                b += st.spans.size() * sizeof(st.spans[0]) + st.tets.size() * sizeof(st.tets[0]);
+        }
+        return b;
+    }
+
+private:
+    static constexpr int kFineMaxCycle = std::countr_zero(unsigned(HtErrorSweep::kReach));
+    static_assert(kFineMaxCycle + 1 == HtErrorSweep::kCoarseShift,
+                  "the coarse lattice must hold the vertices of every diamond larger than the reach");
+    static constexpr Acc kCrossing = Acc(-1);  // a tet crosses the data box: always split
+
+    int cycle_of(int level) const { return dom_.k - 1 - level / 3; }
+    int64_t lattice(int t, int a) const { return (int64_t(dom_.box_max[a]) >> t) + 1; }
+    std::size_t slot(int t, const Pt& c) const {
+        return std::size_t(((int64_t(c[2]) >> t) * lattice(t, 1) + (int64_t(c[1]) >> t)) * lattice(t, 0) +
+                           (int64_t(c[0]) >> t));
+    }
+    Acc coarse_value(const Pt& p) const {
+        const int s = HtErrorSweep::kCoarseShift;
+        const int64_t i = ((int64_t(p[2]) >> s) * cd_.y + (int64_t(p[1]) >> s)) * cd_.x + (int64_t(p[0]) >> s);
+        T v;
+        std::memcpy(&v, coarse_.data() + std::size_t(i) * sizeof(T), sizeof(T));
+        return Acc(v);
+    }
+
+    /// Adds rows za..zb of the diamond centred at c to its running maximum.
+    void accumulate(const ErrorBuilder<T, Acc>& eb, int t, const Pt& c, int64_t za, int64_t zb) {
+        Acc& worst = partial_[std::size_t(t)][slot(t, c)];
+        if (worst == kCrossing) return;
+        Tet tets[8];
+        const int n = diamond_tets(c, classify_centre(c, dom_.k), dom_.L, tets);
+        for (int i = 0; i < n; ++i) {
+            switch (classify_against_data_box(tets[i], dom_.box_max)) {
+                case BoxRelation::Outside: break;
+                case BoxRelation::Crossing: worst = kCrossing; return;
+                case BoxRelation::Inside: {
+                    Acc fv[4];
+                    for (int v = 0; v < 4; ++v) fv[v] = coarse_value(tets[i][v]);
+                    int64_t D = 1;
+                    const Acc w = eb.scan_rows(tets[i], fv, za, zb, D);
+                    worst = w > worst ? w : worst;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Hands over the large diamonds whose planes all lie at or below zb. The
+    /// tets of a diamond are congruent (one |D|) and x -> up(x) / D is
+    /// monotone, so the maximum of the raw maxima gives the same float as the
+    /// maximum over tets of the whole-field scan.
+    void finish_large(int64_t zb, HtErrorPlaneSink& sink) {
+        const int64_t zmax = dom_.box_max[2];
+        for (int t = kFineMaxCycle + 1; t < dom_.k; ++t) {
+            const int64_t h = int64_t{1} << t;
+            int64_t& z = next_final_[std::size_t(t)];
+            for (; z <= zmax && std::min(z + h, zmax) <= zb; z += h) {
+                float* plane = sink.error_plane(t, z);
+                const int64_t nx = lattice(t, 0);
+                const bool z_even = (z & (2 * h - 1)) == 0;
+                for (int64_t y = 0; y <= dom_.box_max[1]; y += h) {
+                    const bool yz_even = z_even && (y & (2 * h - 1)) == 0;
+                    for (int64_t x = 0; x <= dom_.box_max[0]; x += h) {
+                        if (yz_even && (x & (2 * h - 1)) == 0) continue;  // a coarser point
+                        const Pt c{int32_t(x), int32_t(y), int32_t(z)};
+                        plane[(y >> t) * nx + (x >> t)] = eb_round(final_error(t, c));
+                    }
+                }
+            }
+        }
+    }
+
+    double final_error(int t, const Pt& c) const {
+        const Acc worst = partial_[std::size_t(t)][slot(t, c)];
+        if (worst == kCrossing) return std::numeric_limits<double>::infinity();
+        Tet tets[8];
+        const int n = diamond_tets(c, classify_centre(c, dom_.k), dom_.L, tets);
+        for (int i = 0; i < n; ++i) {
+            if (classify_against_data_box(tets[i], dom_.box_max) != BoxRelation::Inside) continue;
+            const int64_t D = std::abs(orient(tets[i][0], tets[i][1], tets[i][2], tets[i][3]));
+            return to_double_up(worst) / double(D);
+        }
+        return 0.0;  // no tet inside the data box
+    }
+
+    float eb_round(double err) const { return ErrorBuilder<T, Acc>::round_up(err, slack_); }
+
+    HtDomain dom_;
+    double slack_;
+    std::vector<std::byte> coarse_;
+    Dims cd_;
+    int64_t X_, XY_;
+    std::vector<typename ErrorBuilder<T, Acc>::LevelTemplates> templates_;  // per level
+    std::vector<std::vector<Acc>> partial_;                                // per cycle
+    std::vector<int64_t> next_final_;  // per cycle: the first plane of centres not yet handed over
+};
+
+}  // namespace
+
+Dims HtErrorSweep::coarse_dims(const HtDomain& d) {
+    return Dims{(int64_t(d.box_max[0]) >> kCoarseShift) + 1, (int64_t(d.box_max[1]) >> kCoarseShift) + 1,
+                (int64_t(d.box_max[2]) >> kCoarseShift) + 1};
+}
+
+HtErrorSweep::HtErrorSweep(const HtDomain& domain, ValueType type, std::array<double, 2> range,
+                           std::vector<std::byte> coarse) {
+    if (coarse.size() != std::size_t(coarse_dims(domain).count()) * value_size(type))
+        throw Error(ErrorCode::InvalidArgument, "HtErrorSweep: the coarse lattice has the wrong size");
+    dispatch_value_type(type, [&](auto tag) {
+        using T = decltype(tag);
+        with_accumulator<T>(domain, range, [&](auto acc, double slack) {
+            impl_ = std::make_unique<Sweep<T, decltype(acc)>>(domain, slack, std::move(coarse));
+        });
+    });
+}
+
+HtErrorSweep::~HtErrorSweep() = default;
+
+void HtErrorSweep::process(const std::byte* window, int64_t window_z0, int64_t za, int64_t zb,
+                           HtErrorPlaneSink& sink) {
+    impl_->process(window, window_z0, za, zb, sink);
+}
+
+std::size_t HtErrorSweep::memory_bytes() const { return impl_->memory_bytes(); }
+
+}  // namespace tetlod

@@ -1,0 +1,182 @@
+// The out-of-core HT encoder (plane by plane, bounded memory) against the
+// in-memory one: the same container bytes on awkward dims, every value type,
+// padded and not, small and default bricks, budgets from "one plane per slab"
+// to "64 planes per slab", and 1 or 2 threads. Its diamond errors are also
+// checked against the whole-field computation through the public sweep.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/models/ht/ht_error_sweep.hpp"
+#include "tlod_test_util.hpp"
+#include "support/volume_generators.hpp"
+
+using namespace tetlod;
+
+namespace {
+
+struct TempPath {
+    std::string path;
+    explicit TempPath(const std::string& name)
+        : path((std::filesystem::temp_directory_path() /
+                ("tetlod_stream_" + std::to_string(::getpid()) + "_" + name))
+                   .string()) {}
+    ~TempPath() { std::filesystem::remove(path); }
+};
+
+std::vector<std::byte> read_all(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::vector<char> c((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<std::byte> b(c.size());
+    std::memcpy(b.data(), c.data(), c.size());
+    return b;
+}
+
+tlod::Metadata meta_of(const Volume& v) {
+    tlod::Metadata m = tlod::metadata_for_volume(v);
+    m.format_keys["converter"] = "test";
+    return m;
+}
+
+std::vector<std::byte> in_memory_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo) {
+    HtBuildOptions bo;
+    bo.pad = pad;
+    const HtModel model = HtModel::build(v, bo);
+    tlod::ContainerWriter w;
+    encode_ht(model, meta_of(v), w, eo);
+    return w.finish();
+}
+
+std::vector<std::byte> streamed_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo, std::size_t memory,
+                                      HtStreamEncodeSummary* summary = nullptr, int slab = 0) {
+    TempPath out("out.tlod");
+    auto planes = planes_of(v);
+    HtStreamEncodeOptions so;
+    so.encode = eo;
+    so.pad = pad;
+    so.memory_bytes = memory;
+    so.slab_planes = slab;
+    tlod::Metadata meta = meta_of(v);
+    meta.value_range = {12345, 6789};  // replaced by the range the scan finds
+    const auto s = write_ht_container_streaming(*planes, meta, out.path, so);
+    if (summary) *summary = s;
+    return read_all(out.path);
+}
+
+struct Case {
+    Dims dims;
+    ValueType type;
+    test::Field field;
+    bool pad;
+    int brick_log2;
+};
+
+std::string name_of(const Case& c) {
+    return std::to_string(c.dims.x) + "x" + std::to_string(c.dims.y) + "x" + std::to_string(c.dims.z) + " " +
+           value_type_name(c.type) + " " + test::field_name(c.field) + (c.pad ? " padded" : "") + " g" +
+           std::to_string(c.brick_log2);
+}
+
+}  // namespace
+
+TEST(StreamEncode, SameBytesAsInMemory) {
+    const std::vector<Case> cases = {
+        {{2, 2, 2}, ValueType::U8, test::Field::Noisy, false, 4},
+        {{18, 2, 7}, ValueType::I16, test::Field::Smooth, false, 1},
+        {{65, 3, 5}, ValueType::F32, test::Field::Noisy, true, 2},
+        {{33, 33, 33}, ValueType::U8, test::Field::Plateau, false, 1},
+        // k = 7: diamonds up to h = 64, accumulated slab by slab from the coarse lattice.
+        {{70, 41, 66}, ValueType::U8, test::Field::Smooth, false, 4},
+        {{70, 41, 66}, ValueType::U8, test::Field::Noisy, true, 1},
+        {{67, 35, 80}, ValueType::F32, test::Field::Smooth, false, 2},
+        {{67, 35, 80}, ValueType::F64, test::Field::Noisy, false, 4},
+        {{66, 66, 66}, ValueType::I32, test::Field::Noisy, false, 3},  // 128-bit accumulators
+        {{40, 70, 35}, ValueType::U16, test::Field::Smooth, true, 2},
+        {{35, 34, 70}, ValueType::I8, test::Field::Constant, false, 1},
+        {{36, 37, 38}, ValueType::U32, test::Field::Smooth, false, 2},
+    };
+    for (const Case& c : cases) {
+        const Volume v = test::make_volume(c.dims, c.type, c.field, 7);
+        HtEncodeOptions eo;
+        eo.brick_log2 = c.brick_log2;
+        eo.zstd_level = 3;
+        const auto want = in_memory_bytes(v, c.pad, eo);
+        // Slabs of 1 plane (the smallest budget's plan), 3 (not a power of
+        // two, never aligned with bricks) and 64 (the default plan).
+        for (int slab : {1, 3, 0}) {
+            HtStreamEncodeSummary s;
+            const auto got = streamed_bytes(v, c.pad, eo, std::size_t{1} << 30, &s, slab);
+            EXPECT_EQ(s.slab_planes, slab == 0 ? 64 : slab) << name_of(c);
+            ASSERT_EQ(got.size(), want.size()) << name_of(c) << " slab " << slab;
+            EXPECT_TRUE(got == want) << name_of(c) << " slab " << slab;
+        }
+    }
+}
+
+TEST(StreamEncode, OneAndTwoThreadsGiveTheSameBytes) {
+    const Volume v = test::make_volume({70, 45, 67}, ValueType::F32, test::Field::Smooth, 3);
+    HtEncodeOptions eo;
+    eo.zstd_level = 3;
+    std::vector<std::byte> one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = streamed_bytes(v, false, eo, std::size_t{1} << 30);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = streamed_bytes(v, false, eo, std::size_t{1} << 30);
+    }
+    EXPECT_TRUE(one == two);
+    EXPECT_TRUE(one == in_memory_bytes(v, false, eo));
+}
+
+TEST(StreamEncode, TooSmallABudgetSaysWhatItNeeds) {
+    const Volume v = test::make_volume({70, 41, 66}, ValueType::U8, test::Field::Smooth, 7);
+    HtEncodeOptions eo;
+    eo.zstd_level = 3;
+    std::size_t need = 0;
+    try {
+        streamed_bytes(v, false, eo, std::size_t{1} << 20);
+        FAIL() << "1 MiB was enough";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.code(), ErrorCode::TooLarge);
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find("--memory"), std::string::npos) << msg;
+        const auto at = msg.find("at least ");
+        ASSERT_NE(at, std::string::npos) << msg;
+        need = std::stoull(msg.substr(at + 9)) << 20;
+    }
+    // What it asked for is enough, and gives the same bytes.
+    HtStreamEncodeSummary s;
+    const auto got = streamed_bytes(v, false, eo, need, &s);
+    EXPECT_GE(s.slab_planes, 1);
+    EXPECT_LE(s.planned_bytes, need);
+    EXPECT_TRUE(got == in_memory_bytes(v, false, eo));
+}
+
+TEST(StreamEncode, NonFiniteValueIsRefusedWithItsPosition) {
+    Volume v = test::make_volume({20, 21, 22}, ValueType::F32, test::Field::Smooth, 1);
+    v.as<float>()[v.dims.index(3, 4, 5)] = std::numeric_limits<float>::quiet_NaN();
+    TempPath out("nan.tlod");
+    auto planes = planes_of(v);
+    try {
+        write_ht_container_streaming(*planes, meta_of(v), out.path);
+        FAIL() << "a NaN was accepted";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.code(), ErrorCode::CorruptData);
+        EXPECT_NE(std::string(e.what()).find("(3,4,5)"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(out.path));
+}
+
+TEST(StreamEncode, MetadataMustDescribeTheVolume) {
+    const Volume v = test::make_volume({20, 21, 22}, ValueType::U8, test::Field::Smooth, 1);
+    tlod::Metadata m = meta_of(v);
+    m.dims.x = 19;
+    TempPath out("bad.tlod");
+    auto planes = planes_of(v);
+    EXPECT_THROW(write_ht_container_streaming(*planes, m, out.path), Error);
+}
