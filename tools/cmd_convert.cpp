@@ -6,6 +6,8 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <memory>
 #include <optional>
 #include <ostream>
 
@@ -26,6 +28,8 @@ struct ConvertArgs {
     int error_bits = 4;
     double max_shape_ratio = 0;
     std::string model = "ht";
+    std::string memory;  // empty: default_memory_budget()
+    bool in_memory = false;
 };
 
 int run_convert(const ConvertArgs& a) {
@@ -47,19 +51,41 @@ int run_convert(const ConvertArgs& a) {
                             std::to_string(&kv - a.meta.data() + 1) + " is not valid UTF-8 (byte " +
                             std::to_string(bad) + " of the argument); give UTF-8 text");
     }
-    Volume v = load_volume(a.input, a.volume.options());
-    for (const std::string& kv : a.meta) {
-        const auto eq = kv.find('=');
-        v.metadata[kv.substr(0, eq)] = kv.substr(eq + 1);
+    const std::size_t memory = a.memory.empty() ? default_memory_budget() : parse_byte_size(a.memory, "--memory");
+    auto add_meta = [&](std::map<std::string, std::string>& md) {
+        for (const std::string& kv : a.meta) {
+            const auto eq = kv.find('=');
+            md[kv.substr(0, eq)] = kv.substr(eq + 1);
+        }
+    };
+    // The HT alone is converted plane by plane, in bounded memory, from a
+    // format that reads planes by offset; the rest reads the volume whole.
+    std::unique_ptr<VolumePlanes> planes;
+    if (with_ht && !with_mt && !a.in_memory) planes = open_volume_planes(a.input, a.volume.options());
+    std::optional<Volume> whole;
+    if (planes) {
+        Volume h = planes->header();
+        add_meta(h.metadata);
+        planes = with_header(std::move(planes), std::move(h));
+        detail("converting " + a.input + " plane by plane in at most " + format_bytes(memory));
+    } else {
+        if (!a.memory.empty() && !a.in_memory)
+            detail("note: " + a.input + " is read whole (" +
+                   std::string(with_mt ? "the MT is built in memory" : "its format is not read plane by plane") +
+                   "); --memory does not bound this conversion");
+        whole = load_volume(a.input, a.volume.options());
+        add_meta(whole->metadata);
+        detail("read " + a.input + ": " + format_dims(whole->dims) + " " + value_type_name(whole->type) + " in " +
+               format_seconds(sw.seconds()));
     }
-    detail("read " + a.input + ": " + format_dims(v.dims) + " " + value_type_name(v.type) + " in " +
-           format_seconds(sw.seconds()));
+    const Volume& header = planes ? planes->header() : *whole;
 
     const bool bar = show_progress();
     std::optional<ProgressBar> encoding;
-    const double n = double(v.dims.count());
-    const std::size_t value_bytes = value_size(v.type);
+    const double n = double(header.dims.count());
+    const std::size_t value_bytes = value_size(header.type);
     ContainerWriteOptions wo;
+    wo.memory_bytes = memory;
     wo.ht = with_ht;
     wo.mt = with_mt;
     wo.pad = a.pad;
@@ -79,13 +105,21 @@ int run_convert(const ConvertArgs& a) {
         } else if (stage == "built HT") {
             detail("built the HT in " + format_seconds(sw.seconds()));
         } else if (stage == "encode HT") {
-            if (!encoding) encoding.emplace("encoding", "chunks");
+            if (!encoding) encoding.emplace("encoding", planes ? "planes" : "chunks");
             encoding->update(done, total);
+        } else if (stage == "scan HT") {
+            if (!encoding) encoding.emplace("scanning", "planes");
+            encoding->update(done, total);
+            if (done == total) {
+                encoding.reset();
+                detail("scanned " + a.input + " (range, coarse lattice) in " + format_seconds(sw.seconds()));
+            }
         } else if (stage == "encoded HT") {
             encoding.reset();  // erases the bar
         }
     };
-    const ContainerWriteSummary written = write_container(std::move(v), a.output, wo);
+    const ContainerWriteSummary written =
+        planes ? write_container(*planes, a.output, wo) : write_container(std::move(*whole), a.output, wo);
     std::string summary;
     if (written.ht_k >= 0)
         summary += ", HT k = " + std::to_string(written.ht_k) + ", levels 0.." +
@@ -117,6 +151,13 @@ const CommandRegistration registration{Command{
             ->group(g);
         sub.add_option("--model", a->model, "Models to store: ht, mt or ht,mt (the MT shares the HT's field)")
             ->capture_default_str()
+            ->group(g);
+        sub.add_option("--memory", a->memory,
+                       "Memory the HT conversion may use, e.g. 512M or 4G (default: a quarter of RAM); "
+                       "raw input is then read plane by plane, whatever its size")
+            ->group(g);
+        sub.add_flag("--in-memory", a->in_memory,
+                     "Read the whole volume first and build the HT in memory (faster when it fits)")
             ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--level", a->level, "zstd level of every section")

@@ -1,5 +1,8 @@
 // A volume -> a .tlod container holding its HT, its MT or both, with
 // provenance metadata (see container.hpp).
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <charconv>
 #include <cstdio>
@@ -40,8 +43,8 @@ std::string utc_time(std::time_t t) {
     return b;
 }
 
-tlod::Metadata provenance_metadata(const Volume& v, const ContainerWriteOptions& o) {
-    tlod::Metadata meta = tlod::metadata_for_volume(v);
+/// `meta`: what the volume says of itself (tlod::metadata_for_volume).
+tlod::Metadata with_provenance(tlod::Metadata meta, const ContainerWriteOptions& o) {
     if (!o.source_path.empty()) {
         meta.format_keys[tlod::kKeySourceName] = std::filesystem::path(o.source_path).filename().string();
         if (auto h = tlod::checksum64_file(o.source_path)) {
@@ -64,18 +67,68 @@ void check_range(const char* what, int value, int lo, int hi) {
                                                     std::to_string(hi));
 }
 
-}  // namespace
-
-ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
+void check_options(const ContainerWriteOptions& o) {
     if (!o.ht && !o.mt) throw Error(ErrorCode::InvalidArgument, "write_container: no model requested");
     check_range("zstd level", o.zstd_level, 1, 22);
     check_range("brick_log2", o.brick_log2, 1, 16);
     check_range("error bits", o.error_bits, 0, 7);
+}
+
+}  // namespace
+
+std::size_t default_memory_budget() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+    const std::size_t physical = pages > 0 && page > 0 ? std::size_t(pages) * std::size_t(page) : 0;
+    return std::max<std::size_t>(physical / 4, std::size_t{256} << 20);
+}
+
+ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
+                                      const ContainerWriteOptions& o) {
+    check_options(o);
+    if (o.mt) {
+        // The MT is built from the whole volume: read it, then the usual path.
+        const Volume& h = source.header();
+        validate_dims(h.dims, "write_container");
+        Volume v = Volume::allocate(h.dims, h.type);
+        v.spacing = h.spacing;
+        v.origin = h.origin;
+        v.field_name = h.field_name;
+        v.units = h.units;
+        v.metadata = h.metadata;
+        source.read(0, h.dims.z, v.data.data());
+        return write_container(std::move(v), path, o);
+    }
+    Stopwatch clock;
+    HtStreamEncodeOptions so;
+    so.pad = o.pad;
+    so.encode.zstd_level = o.zstd_level;
+    so.encode.brick_log2 = o.brick_log2;
+    so.encode.error_mantissa_bits = o.error_bits;
+    so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
+    if (o.progress)
+        so.progress = [&](const char* stage, uint64_t done, uint64_t total) {
+            o.progress(std::string(stage) + " HT", std::size_t(done), std::size_t(total));
+        };
+    // The value range is filled in by the encoder's first pass.
+    const tlod::Metadata meta = with_provenance(tlod::metadata_for_volume(source.header(), {0, 0}), o);
+    const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, so);
+    if (o.progress) o.progress("encoded HT", 0, 0);
+    ContainerWriteSummary summary;
+    summary.ht_k = s.domain.k;
+    summary.ht_max_level = s.domain.max_level();
+    std::error_code size_error;  // "-" (standard output) has no size
+    summary.bytes = std::filesystem::file_size(path, size_error);
+    summary.seconds = clock.seconds();
+    return summary;
+}
+
+ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
+    check_options(o);
     Stopwatch clock;
     auto progress = [&](const char* stage, std::size_t done, std::size_t total) {
         if (o.progress) o.progress(stage, done, total);
     };
-    const tlod::Metadata meta = provenance_metadata(volume, o);
+    const tlod::Metadata meta = with_provenance(tlod::metadata_for_volume(volume), o);
     ContainerWriteSummary summary;
     tlod::ContainerWriter w;
     std::optional<MtModel> mt;

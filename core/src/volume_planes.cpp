@@ -33,7 +33,27 @@ private:
     Volume header_;
 };
 
+class Reheaded final : public VolumePlanes {
+public:
+    Reheaded(std::unique_ptr<VolumePlanes> inner, Volume header)
+        : inner_(std::move(inner)), header_(std::move(header)) {
+        header_.data = {};
+        if (!(header_.dims == inner_->header().dims) || header_.type != inner_->header().type)
+            throw Error(ErrorCode::InvalidArgument, "with_header: the header's dims or type differ from the planes'");
+    }
+    const Volume& header() const override { return header_; }
+    void read(int64_t z0, int64_t count, std::byte* dst) override { inner_->read(z0, count, dst); }
+
+private:
+    std::unique_ptr<VolumePlanes> inner_;
+    Volume header_;
+};
+
 }  // namespace
+
+std::unique_ptr<VolumePlanes> with_header(std::unique_ptr<VolumePlanes> inner, Volume header) {
+    return std::make_unique<Reheaded>(std::move(inner), std::move(header));
+}
 
 std::unique_ptr<VolumePlanes> planes_of(const Volume& volume) { return std::make_unique<InMemoryPlanes>(volume); }
 

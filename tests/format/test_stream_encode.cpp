@@ -142,7 +142,7 @@ TEST(StreamEncode, TooSmallABudgetSaysWhatItNeeds) {
         streamed_bytes(v, false, eo, std::size_t{1} << 20);
         FAIL() << "1 MiB was enough";
     } catch (const Error& e) {
-        EXPECT_EQ(e.code(), ErrorCode::TooLarge);
+        EXPECT_EQ(e.code(), ErrorCode::InvalidArgument);
         const std::string msg = e.what();
         EXPECT_NE(msg.find("--memory"), std::string::npos) << msg;
         const auto at = msg.find("at least ");

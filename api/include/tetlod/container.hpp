@@ -22,6 +22,7 @@
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/tet_mesh_sink.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tetlod/models/lod_model.hpp"
@@ -49,6 +50,9 @@ struct ContainerWriteOptions {
     /// convention: the same input and options then give the same bytes; a value
     /// that is not a non-negative decimal integer is InvalidArgument), else now.
     std::optional<int64_t> created;
+    /// Out-of-core writing (the VolumePlanes overload): the memory the HT
+    /// encoder plans for, in bytes; 0: default_memory_budget().
+    std::size_t memory_bytes = 0;
     /// Called as (stage, done, total) while building and encoding: "build MT",
     /// "built MT", "build HT", "built HT", "encoded HT" (done = total = 0), and
     /// "encode HT" after each chunk (done of total chunks).
@@ -61,6 +65,18 @@ struct ContainerWriteSummary {
     uint64_t mt_updates = 0, mt_base_tets = 0;
     double seconds = 0;
 };
+
+/// A quarter of the machine's physical memory (at least 256 MiB): what
+/// out-of-core conversion plans for unless told otherwise.
+std::size_t default_memory_budget();
+
+/// The same container written from a volume read plane by plane: with the
+/// HT alone, in memory bounded by options.memory_bytes rather than by the
+/// volume (two passes over the planes; same bytes as the overload below;
+/// progress stages "scan HT" and "encode HT" over planes, then "encoded HT").
+/// With the MT the planes are read into memory first (the MT is built whole).
+ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
+                                      const ContainerWriteOptions& options = {});
 
 /// Builds the requested models of `volume` (moved in; user metadata from
 /// volume.metadata) and writes them to `path` atomically ("-": standard output).

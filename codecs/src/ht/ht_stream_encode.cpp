@@ -220,7 +220,7 @@ private:
             }
         }
         const std::size_t need = (planned + kUnplannedBytes + (std::size_t{1} << 20) - 1) >> 20;
-        throw Error(ErrorCode::TooLarge,
+        throw Error(ErrorCode::InvalidArgument,
                     "converting this volume plane by plane needs at least " + std::to_string(need) +
                         " MiB with bricks of 2^" + std::to_string(o_.encode.brick_log2 + 1) +
                         " steps (budget " + std::to_string(o_.memory_bytes >> 20) +

@@ -1,5 +1,8 @@
 #include "tetlod/converters/raw_volume.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <bit>
 #include <cerrno>
@@ -70,7 +73,15 @@ std::optional<RawNameInfo> parse_raw_volume_name(const std::string& path) {
     return RawNameInfo{Dims{d[0], d[1], d[2]}, *type};
 }
 
-Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options) {
+namespace {
+
+/// What a raw file holds, checked against its size before anything is allocated.
+struct RawLayout {
+    Dims dims;
+    ValueType type = ValueType::U8;
+}; 
+
+RawLayout raw_layout(const std::string& path, const VolumeReadOptions& options) {
     // A missing file is the likelier mistake than a missing --dims: report it first.
     require_regular_file(path, "raw volume");
     std::error_code ec;
@@ -105,6 +116,72 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
                         std::to_string(value_size(type)) + " bytes) but the file has " +
                         std::to_string(actual) + " bytes");
     }
+    return RawLayout{dims, type};
+}
+
+void set_geometry(Volume& v, const std::string& path, const VolumeReadOptions& options) {
+    if (options.spacing) v.spacing = *options.spacing;
+    if (options.origin) v.origin = *options.origin;
+    v.metadata["source_file"] = std::filesystem::path(path).filename().string();
+}
+
+/// Planes read by offset: a plane costs one pread, wherever it lies.
+class RawPlanes final : public VolumePlanes {
+public:
+    RawPlanes(const std::string& path, const VolumeReadOptions& options, const RawLayout& layout)
+        : path_(path), header_bytes_(options.header_bytes), swap_(needs_swap(options.endian)) {
+        header_.dims = layout.dims;
+        header_.type = layout.type;
+        set_geometry(header_, path, options);
+        fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd_ < 0) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
+    }
+    ~RawPlanes() override { ::close(fd_); }
+
+    const Volume& header() const override { return header_; }
+
+    void read(int64_t z0, int64_t count, std::byte* dst) override {
+        const Dims& d = header_.dims;
+        if (z0 < 0 || count < 0 || z0 + count > d.z)
+            throw Error(ErrorCode::InvalidArgument, "'" + path_ + "': planes " + std::to_string(z0) + ".." +
+                                                        std::to_string(z0 + count - 1) + " outside the volume");
+        const std::size_t elem = value_size(header_.type);
+        const uint64_t plane = uint64_t(d.x * d.y) * elem;
+        uint64_t offset = header_bytes_ + uint64_t(z0) * plane;
+        std::size_t left = std::size_t(uint64_t(count) * plane);
+        std::byte* out = dst;
+        while (left > 0) {
+            const ssize_t got = ::pread(fd_, out, std::min<std::size_t>(left, kSlabBytes), off_t(offset));
+            if (got < 0 && errno == EINTR) continue;
+            if (got < 0) throw Error(ErrorCode::IoError, "cannot read '" + path_ + "': " + std::strerror(errno));
+            if (got == 0)
+                throw Error(ErrorCode::Truncated, "'" + path_ + "': file ended at byte " + std::to_string(offset) +
+                                                      " while reading samples (was it changed while being read?)");
+            out += got;
+            offset += uint64_t(got);
+            left -= std::size_t(got);
+        }
+        if (swap_) swap_bytes(dst, std::size_t(uint64_t(count) * plane), elem);
+    }
+
+private:
+    std::string path_;
+    uint64_t header_bytes_;
+    bool swap_;
+    Volume header_;
+    int fd_ = -1;
+};
+
+}  // namespace
+
+std::unique_ptr<VolumePlanes> open_raw_volume_planes(const std::string& path, const VolumeReadOptions& options) {
+    return std::make_unique<RawPlanes>(path, options, raw_layout(path, options));
+}
+
+Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options) {
+    const RawLayout layout = raw_layout(path, options);
+    const Dims dims = layout.dims;
+    const ValueType type = layout.type;
 
     std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
     if (!f) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
@@ -128,9 +205,7 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
         done += n;
     }
 
-    if (options.spacing) v.spacing = *options.spacing;
-    if (options.origin) v.origin = *options.origin;
-    v.metadata["source_file"] = std::filesystem::path(path).filename().string();
+    set_geometry(v, path, options);
     return v;
 }
 

@@ -71,7 +71,10 @@ VolumeLocation locate_volume(const std::string& path, const std::string& format)
                                                 "' from its name (known: " + volume_format_summary() + ")");
 }
 
-Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
+namespace {
+
+/// Where a name to read points: by extension, else the format that claims it.
+VolumeLocation locate_input(const std::string& path, const VolumeReadOptions& options) {
     VolumeLocation loc;
     try {
         loc = locate_volume(path);
@@ -85,7 +88,21 @@ Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
         loc.format = &*claimer;
         loc.file = path;
     }
+    return loc;
+}
+
+}  // namespace
+
+Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
+    const VolumeLocation loc = locate_input(path, options);
     return built(loc, path).read(loc, options);
+}
+
+std::unique_ptr<VolumePlanes> open_volume_planes(const std::string& path, const VolumeReadOptions& options) {
+    const VolumeLocation loc = locate_input(path, options);
+    const VolumeFormat& f = built(loc, path);
+    if (!f.open_planes) return nullptr;
+    return f.open_planes(loc, options);
 }
 
 void write_volume(const Volume& volume, const std::string& path, const std::string& format) {

@@ -14,6 +14,7 @@
 //    closed tet follows from four divisions, and the interpolant from adds.
 // Errors are compared as |f*D - sum D_i f_i| / D with |D| a power of two: exact
 // for integer data (double or 128-bit accumulators, see compute_diamond_errors).
+#include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -379,10 +380,10 @@ public:
     }
 
     /// Calls f(c) for every centre c of `level` in the data box with c.z in
-    /// zlo..zhi, in parallel over z (one task per plane of centres: f may
-    /// update state of its own centre without locks).
+    /// zlo..zhi, in parallel (each centre once: f may update state of its
+    /// own centre without locks).
     template <class F>
-    void for_level_centres(int level, int64_t zlo, int64_t zhi, F&& f) const {
+    void for_level_centres(int level, int64_t zlo, int64_t zhi, F&& f, bool parallel = true) const {
         const auto& m = dom_.box_max;
         const int cls = level % 3;
         const int32_t h = int32_t{1} << (dom_.k - 1 - level / 3);
@@ -398,11 +399,27 @@ public:
             const int64_t iz0 = zlo <= first[2] ? 0 : (zlo - first[2] + step - 1) / step;
             const int64_t iz1 = top < first[2] ? -1 : (top - first[2]) / step;
             if (iz1 < iz0) continue;
-            tbb::parallel_for(iz0, iz1 + 1, [&](int64_t iz) {
-                const int32_t z = int32_t(first[2] + iz * step);
-                for (int32_t y = first[1]; y <= m[1]; y += int32_t(step))
-                    for (int32_t x = first[0]; x <= m[0]; x += int32_t(step)) f(Pt{x, y, z});
-            });
+            // Over planes and rows of centres: a slab may hold a single plane
+            // of the larger diamonds' centres, which must still feed every core.
+            const int64_t ny = (m[1] - first[1]) / step + 1;
+            if (!parallel) {
+                for (int64_t iz = iz0; iz <= iz1; ++iz)
+                    for (int64_t iy = 0; iy < ny; ++iy)
+                        for (int32_t x = first[0]; x <= m[0]; x += int32_t(step))
+                            f(Pt{x, int32_t(first[1] + iy * step), int32_t(first[2] + iz * step)});
+                continue;
+            }
+            tbb::parallel_for(tbb::blocked_range2d<int64_t>(iz0, iz1 + 1, 1, 0, ny, 8),
+                              [&](const tbb::blocked_range2d<int64_t>& r) {
+                                  for (int64_t iz = r.rows().begin(); iz < r.rows().end(); ++iz) {
+                                      const int32_t z = int32_t(first[2] + iz * step);
+                                      for (int64_t iy = r.cols().begin(); iy < r.cols().end(); ++iy) {
+                                          const int32_t y = int32_t(first[1] + iy * step);
+                                          for (int32_t x = first[0]; x <= m[0]; x += int32_t(step))
+                                              f(Pt{x, y, z});
+                                      }
+                                  }
+                              });
         }
     }
 

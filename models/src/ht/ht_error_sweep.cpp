@@ -56,10 +56,11 @@ public:
                 });
             } else {
                 const int64_t h = int64_t{1} << t;
-                eb.for_level_centres(level, za - h, zb + h,
-                                     [&](const Pt& c) { accumulate(eb, t, c, za, zb); });
+                eb.for_level_centres(
+                    level, za - h, zb + h, [&](const Pt& c) { gather(t, c, za, zb); }, false);
             }
         }
+        scan_gathered(eb);
         finish_large(zb, sink);
     }
 
@@ -94,26 +95,62 @@ private:
         return Acc(v);
     }
 
-    /// Adds rows za..zb of the diamond centred at c to its running maximum.
-    void accumulate(const ErrorBuilder<T, Acc>& eb, int t, const Pt& c, int64_t za, int64_t zb) {
+    /// A piece of a large diamond's tet to scan: a few of its rows in this slab.
+    struct RowTask {
+        Acc* worst;  // the diamond's running maximum
+        Tet tet;
+        Acc fv[4];
+        int64_t z0, z1;
+        Acc result = 0;
+    };
+    static constexpr int64_t kPlanesPerTask = 4;
+
+    /// Queues rows za..zb of the diamond centred at c, in pieces: the largest
+    /// diamonds are few but long to scan, so they are split to feed every core.
+    void gather(int t, const Pt& c, int64_t za, int64_t zb) {
         Acc& worst = partial_[std::size_t(t)][slot(t, c)];
         if (worst == kCrossing) return;
         Tet tets[8];
         const int n = diamond_tets(c, classify_centre(c, dom_.k), dom_.L, tets);
+        const std::size_t first = tasks_.size();
         for (int i = 0; i < n; ++i) {
             switch (classify_against_data_box(tets[i], dom_.box_max)) {
                 case BoxRelation::Outside: break;
-                case BoxRelation::Crossing: worst = kCrossing; return;
+                case BoxRelation::Crossing:
+                    worst = kCrossing;
+                    tasks_.resize(first);
+                    return;
                 case BoxRelation::Inside: {
-                    Acc fv[4];
-                    for (int v = 0; v < 4; ++v) fv[v] = coarse_value(tets[i][v]);
-                    int64_t D = 1;
-                    const Acc w = eb.scan_rows(tets[i], fv, za, zb, D);
-                    worst = w > worst ? w : worst;
+                    int64_t lo = tets[i][0][2], hi = lo;
+                    for (int v = 1; v < 4; ++v) {
+                        lo = std::min<int64_t>(lo, tets[i][v][2]);
+                        hi = std::max<int64_t>(hi, tets[i][v][2]);
+                    }
+                    lo = std::max(lo, za);
+                    hi = std::min(hi, zb);
+                    for (int64_t z = lo; z <= hi; z += kPlanesPerTask) {
+                        RowTask task;
+                        task.worst = &worst;
+                        task.tet = tets[i];
+                        for (int v = 0; v < 4; ++v) task.fv[v] = coarse_value(tets[i][v]);
+                        task.z0 = z;
+                        task.z1 = std::min(hi, z + kPlanesPerTask - 1);
+                        tasks_.push_back(task);
+                    }
                     break;
                 }
             }
         }
+    }
+
+    void scan_gathered(const ErrorBuilder<T, Acc>& eb) {
+        tbb::parallel_for(std::size_t(0), tasks_.size(), [&](std::size_t i) {
+            RowTask& task = tasks_[i];
+            int64_t D = 1;
+            task.result = eb.scan_rows(task.tet, task.fv, task.z0, task.z1, D);
+        });
+        for (const RowTask& task : tasks_) *task.worst = task.result > *task.worst ? task.result : *task.worst;
+        tasks_.clear();
     }
 
     /// Hands over the large diamonds whose planes all lie at or below zb. The
@@ -164,6 +201,7 @@ private:
     std::vector<typename ErrorBuilder<T, Acc>::LevelTemplates> templates_;  // per level
     std::vector<std::vector<Acc>> partial_;                                // per cycle
     std::vector<int64_t> next_final_;  // per cycle: the first plane of centres not yet handed over
+    std::vector<RowTask> tasks_;       // this slab's rows of large diamonds
 };
 
 }  // namespace

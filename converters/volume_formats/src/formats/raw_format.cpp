@@ -10,6 +10,9 @@ VolumeFormat raw_volume_format() {
     f.extensions = {".raw"};
     f.description = "raw samples (dims/type from flags or a NAME_XxYxZ_DTYPE.raw name)";
     f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_raw_volume(l.file, o); };
+    f.open_planes = [](const VolumeLocation& l, const VolumeReadOptions& o) {
+        return open_raw_volume_planes(l.file, o);
+    };
     f.write = [](const Volume& v, const VolumeLocation& l) { write_raw_volume(v, l.file, Endian::Little); };
     f.lost_metadata = [](const Volume& v) {
         std::vector<std::string> all;

@@ -22,6 +22,10 @@ public:
     virtual void read(int64_t z0, int64_t count, std::byte* dst) = 0;
 };
 
+/// `inner`'s planes under another header (metadata added by the user, say);
+/// the header's dims and type must be inner's (else InvalidArgument).
+std::unique_ptr<VolumePlanes> with_header(std::unique_ptr<VolumePlanes> inner, Volume header);
+
 /// The planes of a volume already in memory (which must outlive the result).
 std::unique_ptr<VolumePlanes> planes_of(const Volume& volume);
 

@@ -46,7 +46,8 @@ struct HtStreamEncodeOptions {
     bool pad = false;
     /// Memory the encoder plans for, in bytes (its peak, buffers and
     /// bookkeeping; the program itself comes on top). The slab height adapts;
-    /// when even one plane at a time does not fit, TooLarge says how much is needed.
+    /// when even one plane at a time does not fit, InvalidArgument says how
+    /// much is needed.
     std::size_t memory_bytes = std::size_t{1} << 30;
     /// Planes per slab, 1..1024; 0: the largest power of two up to 64 that fits
     /// the budget. Any height gives the same bytes; higher ones amortise the
@@ -71,8 +72,8 @@ struct HtStreamEncodeSummary {
 /// those of write_ht_container(HtModel::build(volume, pad), meta, options.encode).
 /// `meta` describes the source volume; its value range is replaced by the one
 /// read. Chunk payloads wait in a temporary file beside `path`. Throws
-/// tetlod::Error: CorruptData for a non-finite value, TooLarge for a budget
-/// below the minimum, IoError/Truncated from the source or the output.
+/// tetlod::Error: CorruptData for a non-finite value, InvalidArgument for a
+/// budget below the minimum, IoError/Truncated from the source or the output.
 HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::Metadata meta,
                                                    const std::string& path,
                                                    const HtStreamEncodeOptions& options = {});

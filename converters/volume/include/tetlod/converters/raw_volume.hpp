@@ -3,11 +3,13 @@
 // x varying fastest, then y, then z, optionally after a fixed-size header that is
 // skipped. Dims and type come from the options or, where absent, from a file name
 // of the form NAME_XxYxZ_DTYPE.raw (e.g. bucky_32x32x32_uint8.raw).
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
@@ -27,6 +29,10 @@ std::optional<RawNameInfo> parse_raw_volume_name(const std::string& path);
 /// Reads in bounded slabs straight into the volume. Safe on untrusted input.
 /// Sets spacing/origin from the options and metadata["source_file"] to the file name.
 Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options);
+
+/// The same file read plane by plane (by offset, nothing kept): the same
+/// checks first, then each read() costs what it reads.
+std::unique_ptr<VolumePlanes> open_raw_volume_planes(const std::string& path, const VolumeReadOptions& options);
 
 /// Writes the samples (no header) in the given byte order, atomically (the target
 /// is replaced only once the whole file is on disk). Throws tetlod::Error(IoError).

@@ -6,11 +6,13 @@
 // (src/formats/<name>_format.cpp) plus one line in the registration list.
 #include <deque>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
@@ -44,6 +46,9 @@ struct VolumeFormat {
     bool datasets = false;
 
     std::function<Volume(const VolumeLocation&, const VolumeReadOptions&)> read;
+    /// Optional: the volume read plane by plane, each plane read when asked
+    /// (out-of-core conversion). Empty: the format is only read whole.
+    std::function<std::unique_ptr<VolumePlanes>(const VolumeLocation&, const VolumeReadOptions&)> open_planes;
     /// Writes atomically: nothing is left at the target if writing fails.
     std::function<void(const Volume&, const VolumeLocation&)> write;
     /// Metadata keys of the volume that `write` leaves out (empty: none).

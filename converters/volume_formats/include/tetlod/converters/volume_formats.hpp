@@ -29,6 +29,10 @@ VolumeLocation locate_volume(const std::string& path, const std::string& format 
 /// NAME_XxYxZ_DTYPE.ext). Throws tetlod::Error naming the file and problem.
 Volume read_volume(const std::string& path, const VolumeReadOptions& options = {});
 
+/// The volume read plane by plane when its format can (raw; see
+/// VolumeFormat::open_planes), else null: read_volume then reads it whole.
+/// The same checks and errors as read_volume before anything is read.
+std::unique_ptr<VolumePlanes> open_volume_planes(const std::string& path, const VolumeReadOptions& options = {});
 /// Writes `volume` in the format chosen by `path` (or `format`), atomically:
 /// nothing is left at the target if writing fails.
 void write_volume(const Volume& volume, const std::string& path, const std::string& format = "");
