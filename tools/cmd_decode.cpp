@@ -24,6 +24,21 @@ struct DecodeArgs {
     VolumeFlags volume;
 };
 
+/// Planes passed through, drawing the progress bar as they are read.
+class ProgressPlanes final : public VolumePlanes {
+public:
+    ProgressPlanes(std::unique_ptr<VolumePlanes> inner, ProgressBar& bar) : inner_(std::move(inner)), bar_(bar) {}
+    const Volume& header() const override { return inner_->header(); }
+    void read(int64_t z0, int64_t count, std::byte* dst) override {
+        inner_->read(z0, count, dst);
+        bar_.update(uint64_t(z0 + count), uint64_t(header().dims.z));
+    }
+
+private:
+    std::unique_ptr<VolumePlanes> inner_;
+    ProgressBar& bar_;
+};
+
 void print_written(const std::string& output, const VolumeLocation& where, const Volume& v,
                    double seconds) {
     std::error_code ec;
@@ -70,13 +85,17 @@ int run_decode(const DecodeArgs& a) {
     Stopwatch clock;
 
     if (!lod) {  // the original volume, bit-exact
-        Volume v;
         if (container) {
-            ProgressBar bar("decoding", "chunks");
-            v = decode_container(a.input, [&](uint64_t done, uint64_t total) { bar.update(done, total); }).take();
-        } else {
-            v = load_volume(a.input, a.volume.options());
+            // Plane by plane: a container decodes a row of bricks at a time and
+            // raw/NRRD/MetaImage outputs take it plane by plane.
+            ProgressBar bar("decoding", "planes");
+            ProgressPlanes planes(open_container_planes(a.input).take(), bar);
+            write_volume(planes, a.output, a.format);
+            warn_metadata_lost(planes.header(), a.output, a.format);
+            print_written(a.output, where, planes.header(), clock.seconds());
+            return 0;
         }
+        const Volume v = load_volume(a.input, a.volume.options());
         write_volume(v, a.output, a.format);
         warn_metadata_lost(v, a.output, a.format);
         print_written(a.output, where, v, clock.seconds());

@@ -66,6 +66,16 @@ Expected<Volume> decode_container(const std::string& path, const std::function<v
     return decode_volume(*r, progress);
 }
 
+Expected<std::unique_ptr<VolumePlanes>> open_container_planes(const std::string& path, std::size_t cache_bytes) {
+    const ContainerModels m = container_models(path);
+    if (!m.ht && m.mt) {
+        auto v = decode_container(path);
+        if (!v) return v.failure();
+        return planes_owning(std::move(*v));
+    }
+    return open_ht_planes(path, cache_bytes);
+}
+
 Expected<StoredModel> open_stored_model(const std::string& path, ModelKind model) {
     Stopwatch clock;
     auto r = tlod::ContainerReader::open(path);

@@ -87,16 +87,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
     check_options(o);
     if (o.mt) {
         // The MT is built from the whole volume: read it, then the usual path.
-        const Volume& h = source.header();
-        validate_dims(h.dims, "write_container");
-        Volume v = Volume::allocate(h.dims, h.type);
-        v.spacing = h.spacing;
-        v.origin = h.origin;
-        v.field_name = h.field_name;
-        v.units = h.units;
-        v.metadata = h.metadata;
-        source.read(0, h.dims.z, v.data.data());
-        return write_container(std::move(v), path, o);
+        return write_container(read_all_planes(source), path, o);
     }
     Stopwatch clock;
     HtStreamEncodeOptions so;

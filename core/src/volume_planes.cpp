@@ -49,10 +49,35 @@ private:
     Volume header_;
 };
 
+class OwningPlanes final : public VolumePlanes {
+public:
+    explicit OwningPlanes(Volume v) : v_(std::move(v)), view_(v_) {}
+    const Volume& header() const override { return view_.header(); }
+    void read(int64_t z0, int64_t count, std::byte* dst) override { view_.read(z0, count, dst); }
+
+private:
+    Volume v_;
+    InMemoryPlanes view_;
+};
+
 }  // namespace
+
+std::unique_ptr<VolumePlanes> planes_owning(Volume volume) { return std::make_unique<OwningPlanes>(std::move(volume)); }
 
 std::unique_ptr<VolumePlanes> with_header(std::unique_ptr<VolumePlanes> inner, Volume header) {
     return std::make_unique<Reheaded>(std::move(inner), std::move(header));
+}
+
+Volume read_all_planes(VolumePlanes& planes) {
+    const Volume& h = planes.header();
+    Volume v = Volume::allocate(h.dims, h.type);
+    v.spacing = h.spacing;
+    v.origin = h.origin;
+    v.field_name = h.field_name;
+    v.units = h.units;
+    v.metadata = h.metadata;
+    planes.read(0, h.dims.z, v.data.data());
+    return v;
 }
 
 std::unique_ptr<VolumePlanes> planes_of(const Volume& volume) { return std::make_unique<InMemoryPlanes>(volume); }

@@ -190,6 +190,12 @@ Expected<ContainerExtract> extract_from_container_to(const std::string& path, Mo
 Expected<Volume> decode_container(const std::string& path,
                                   const std::function<void(uint64_t done, uint64_t total)>& progress = {});
 
+/// The same volume read plane by plane: from the HT, a row of the finest bricks
+/// at a time (memory: that row plus `cache_bytes` of coarser chunks, 0: what a
+/// row needs, whatever the grid; write_volume(planes, ...) then streams it to
+/// raw, NRRD or MetaImage); an MT-only container's field is decoded whole first.
+Expected<std::unique_ptr<VolumePlanes>> open_container_planes(const std::string& path, std::size_t cache_bytes = 0);
+
 /// A container's stored `model` together with the volume it stores, decoding
 /// the field once (what open_model + decode_container would give). An MT request
 /// on a container without one is a NotFound error naming the file.

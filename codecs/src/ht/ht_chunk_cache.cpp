@@ -8,11 +8,13 @@
 
 namespace tetlod::ht_detail {
 
-HtChunkCache::HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes)
+HtChunkCache::HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes,
+                           bool errors)
     : r_(reader),
       L_(layout),
       G_(geometry_of(layout.domain, layout.brick_log2)),
       budget_(budget_bytes),
+      errors_(errors),
       first_of_cycle_(std::size_t(G_.k + 1), 0),
       slots_(layout.chunks.size()) {
     for (std::size_t i = L_.chunks.size(); i-- > 0;) first_of_cycle_[std::size_t(L_.chunks[i].cycle)] = i;
@@ -30,12 +32,61 @@ std::size_t HtChunkCache::chunk_of(const ht::Pt& p, int* cycle) const {
 }
 
 std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
+    Prepared p;
+    {
+        std::unique_lock<std::mutex> lock(mu_);
+        for (;;) {
+            Slot& s = slots_[id];
+            if (s.chunk) {
+                lru_.splice(lru_.begin(), lru_, s.lru);
+                return s.chunk;
+            }
+            if (!s.pending) break;
+            decoded_.wait(lock);  // another thread is decoding it
+        }
+        // Its coarser points are gathered under the lock (decoding missing
+        // coarser chunks there); the chunk's own decoding, the bulk of the
+        // work, runs outside, so threads asking for different chunks decode
+        // in parallel. The chunks this fetched stay pinned until it has
+        // copied from them: with a tiny budget, re-fetching coarser chunks
+        // for every dependency would cost exponentially in the cycles.
+        slots_[id].pending = true;
+        ++depth_;
+        try {
+            p = prepare(id, errors_);
+        } catch (...) {
+            --depth_;
+            pinned_.clear();
+            slots_[id].pending = false;
+            decoded_.notify_all();
+            throw;
+        }
+        --depth_;
+        pinned_.clear();
+    }
+    try {
+        finish(id, p);
+    } catch (...) {
+        std::lock_guard<std::mutex> lock(mu_);
+        slots_[id].pending = false;
+        decoded_.notify_all();
+        throw;
+    }
     std::lock_guard<std::mutex> lock(mu_);
-    auto c = get_locked(id);
-    // The chunks this decoding fetched stayed pinned so that none was decoded
-    // twice for it (with a tiny budget, re-fetching coarser chunks for every
-    // dependency would cost exponentially in the number of cycles).
-    pinned_.clear();
+    Slot& slot = slots_[id];
+    slot.pending = false;
+    if (!slot.chunk) {  // else a nested fetch decoded it meanwhile: the same bytes
+        slot.chunk = p.chunk;
+        lru_.push_front(id);
+        slot.lru = lru_.begin();
+        bytes_ += slot.chunk->bytes();
+        stats_.distinct += slot.seen ? 0 : 1;
+        slot.seen = true;
+        stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
+        stats_.decodes += 1;
+    }
+    decoded_.notify_all();
+    std::shared_ptr<const DecodedChunk> c = slot.chunk;
     evict_over_budget(id);
     return c;
 }
@@ -88,7 +139,45 @@ void HtChunkCache::evict_over_budget(std::size_t keep) {
     }
 }
 
+std::shared_ptr<const DecodedChunk> HtChunkCache::decode_uncached(std::size_t id, bool errors) {
+    Prepared p;
+    {
+        std::lock_guard<std::mutex> lock(mu_);
+        ++depth_;  // the coarser chunks it fetches stay pinned while it copies from them
+        try {
+            p = prepare(id, errors);
+        } catch (...) {
+            --depth_;
+            pinned_.clear();
+            throw;
+        }
+        --depth_;
+        pinned_.clear();
+        evict_over_budget(SIZE_MAX);
+        stats_.decodes += 1;
+        stats_.distinct += slots_[id].seen ? 0 : 1;
+        slots_[id].seen = true;
+    }
+    finish(id, p);
+    return p.chunk;
+}
+
 std::shared_ptr<const DecodedChunk> HtChunkCache::decode(std::size_t id) {
+    Prepared p = prepare(id, errors_);
+    finish(id, p);
+    return p.chunk;
+}
+
+void HtChunkCache::finish(std::size_t id, Prepared& p) {
+    const HtChunk& c = L_.chunks[id];
+    DecodedChunk& out = *p.chunk;
+    const Failure f = decode_chunk_sections(r_, L_, c, out.window, out.type, out.field.data(),
+                                            out.errors.empty() ? nullptr : out.errors.data(), p.field_stored,
+                                            p.error_stored);
+    if (f.code != ErrorCode::Ok) raise(f);
+}
+
+HtChunkCache::Prepared HtChunkCache::prepare(std::size_t id, bool errors) {
     const HtChunk& c = L_.chunks[id];
     const int t = c.cycle;
     auto out = std::make_shared<DecodedChunk>();
@@ -98,7 +187,7 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::decode(std::size_t id) {
     const std::size_t vs = value_size(out->type);
     const Geometry& W = out->window;
     out->field.assign(std::size_t(n) * vs, std::byte{0});
-    out->errors.assign(std::size_t(n), 0.0f);
+    if (errors) out->errors.assign(std::size_t(n), 0.0f);
     const int64_t h = int64_t{1} << t;
     // The window's extent in grid coordinates.
     std::array<int64_t, 6> wb{};
@@ -141,13 +230,17 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::decode(std::size_t id) {
                     });
                 }
     }
+    Prepared p;
     auto fst = r_.read_stored(c.field_section);
     if (!fst) raise(fst.failure());
-    auto est = r_.read_stored(c.error_section);
-    if (!est) raise(est.failure());
-    const Failure f = decode_chunk_sections(r_, L_, c, W, out->type, out->field.data(), out->errors.data(), *fst, *est);
-    if (f.code != ErrorCode::Ok) raise(f);
-    return out;
+    p.field_stored = std::move(*fst);
+    if (errors) {
+        auto est = r_.read_stored(c.error_section);
+        if (!est) raise(est.failure());
+        p.error_stored = std::move(*est);
+    }
+    p.chunk = std::move(out);
+    return p;
 }
 
 CachedSampleSource::CachedSampleSource(HtChunkCache& cache)

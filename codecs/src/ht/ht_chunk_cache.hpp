@@ -14,6 +14,7 @@
 // results, more time).
 #include <cstddef>
 #include <cstdint>
+#include <condition_variable>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -42,8 +43,10 @@ struct ChunkCacheStats {
 
 class HtChunkCache {
 public:
-    /// `reader` and `layout` must outlive the cache.
-    HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes);
+    /// `reader` and `layout` must outlive the cache. `errors`: decode the
+    /// error sections too (false: the field only, for reading the volume).
+    HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes,
+                 bool errors = true);
 
     /// Index (file order) of the chunk holding grid point p of B, and its cycle.
     std::size_t chunk_of(const ht::Pt& p, int* cycle = nullptr) const;
@@ -51,11 +54,24 @@ public:
     /// (CorruptData, naming the container and section) on a bad chunk.
     std::shared_ptr<const DecodedChunk> get(std::size_t id);
 
+    /// Decodes chunk `id` for a caller that uses it once (the finest rows of
+    /// a volume read plane by plane): its coarser chunks come through the
+    /// cache, its own decoding runs outside the lock, so callers decode in
+    /// parallel, and is not kept. `errors`: decode its error section too.
+    std::shared_ptr<const DecodedChunk> decode_uncached(std::size_t id, bool errors);
+
     ChunkCacheStats stats() const;
     const HtLayout& layout() const { return L_; }
 
 private:
     std::shared_ptr<const DecodedChunk> get_locked(std::size_t id);
+    /// A chunk's window with its coarser points filled, and its sections.
+    struct Prepared {
+        std::shared_ptr<DecodedChunk> chunk;
+        std::vector<std::byte> field_stored, error_stored;
+    };
+    Prepared prepare(std::size_t id, bool errors);  // under the lock
+    void finish(std::size_t id, Prepared& p);      // the decoding proper, lock-free
     std::shared_ptr<const DecodedChunk> decode(std::size_t id);
     void evict_over_budget(std::size_t keep);
 
@@ -63,13 +79,16 @@ private:
     const HtLayout& L_;
     const Geometry G_;
     const std::size_t budget_;
+    const bool errors_;
     std::vector<std::size_t> first_of_cycle_;
     mutable std::mutex mu_;
     struct Slot {
         std::shared_ptr<const DecodedChunk> chunk;
         std::list<std::size_t>::iterator lru;
         bool seen = false;
+        bool pending = false;  // being decoded by a thread outside the lock
     };
+    std::condition_variable decoded_;  // a pending chunk is done
     std::vector<Slot> slots_;
     std::list<std::size_t> lru_;  // most recent first
     std::size_t bytes_ = 0;

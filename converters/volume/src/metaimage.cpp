@@ -329,10 +329,16 @@ std::vector<std::string> metaimage_unstorable_keys(const Volume& vol) {
 }
 
 void write_metaimage(const Volume& vol, const std::string& path, const MetaImageWriteOptions& options) {
+    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
+        throw Error(ErrorCode::InvalidArgument, "'" + path + "': volume data size does not match its dims");
+    auto planes = planes_of(vol);
+    write_metaimage(*planes, path, options);
+}
+
+void write_metaimage(VolumePlanes& planes, const std::string& path, const MetaImageWriteOptions& options) {
+    const Volume& vol = planes.header();
     const std::string what = "'" + path + "'";
     validate_dims(vol.dims, what);
-    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
-        throw Error(ErrorCode::InvalidArgument, what + ": volume data size does not match its dims");
     const bool detached = options.layout == MetaImageWriteOptions::Layout::Detached ||
                           (options.layout == MetaImageWriteOptions::Layout::Auto &&
                            to_lower(std::filesystem::path(path).extension().string()) == ".mhd");
@@ -366,7 +372,7 @@ void write_metaimage(const Volume& vol, const std::string& path, const MetaImage
         // Both files pass the output policy before a sample is written.
         AtomicFile data((p.parent_path() / data_name).string());
         AtomicFile header(path);
-        uint64_t bytes = write_samples(data, vol, options.endian, comp, false);
+        uint64_t bytes = write_samples(data, planes, options.endian, comp, false);
         if (options.compress) hdr += "CompressedDataSize = " + std::to_string(bytes) + "\n";
         hdr = tail(hdr) + "ElementDataFile = " + data_name + "\n";
         header.write(hdr);
@@ -377,7 +383,7 @@ void write_metaimage(const Volume& vol, const std::string& path, const MetaImage
         hdr = tail(hdr) + "ElementDataFile = LOCAL\n";
         AtomicFile out(path);
         out.write(hdr);
-        write_samples(out, vol, options.endian, comp, false);
+        write_samples(out, planes, options.endian, comp, false);
         out.commit();
     }
 }

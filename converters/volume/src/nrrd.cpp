@@ -413,9 +413,15 @@ std::vector<std::string> nrrd_unstorable_keys(const Volume& vol) {
 }
 
 void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptions& options) {
-    validate_dims(vol.dims, "'" + path + "'");
     if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
         throw Error(ErrorCode::InvalidArgument, "'" + path + "': volume data size does not match its dims");
+    auto planes = planes_of(vol);
+    write_nrrd(*planes, path, options);
+}
+
+void write_nrrd(VolumePlanes& planes, const std::string& path, const NrrdWriteOptions& options) {
+    const Volume& vol = planes.header();
+    validate_dims(vol.dims, "'" + path + "'");
     bool detached = options.layout == NrrdWriteOptions::Layout::Detached ||
                     (options.layout == NrrdWriteOptions::Layout::Auto &&
                      to_lower(std::filesystem::path(path).extension().string()) == ".nhdr");
@@ -470,7 +476,7 @@ void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptio
         // Both files pass the output policy before a sample is written.
         AtomicFile data(data_path);
         AtomicFile header(path);
-        write_samples(data, vol, options.endian, comp, true);
+        write_samples(data, planes, options.endian, comp, true);
         hdr += "data file: " + data_name + "\n";
         header.write(hdr);
         data.commit();
@@ -479,7 +485,7 @@ void write_nrrd(const Volume& vol, const std::string& path, const NrrdWriteOptio
         AtomicFile out(path);
         hdr += "\n";
         out.write(hdr);
-        write_samples(out, vol, options.endian, comp, true);
+        write_samples(out, planes, options.endian, comp, true);
         out.commit();
     }
 }

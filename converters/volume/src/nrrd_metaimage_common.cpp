@@ -249,27 +249,61 @@ Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiec
     return vol;
 }
 
+namespace {
+
+/// The samples of a volume's planes as one byte stream, a plane in memory at a time.
+class PlaneBytes {
+public:
+    explicit PlaneBytes(VolumePlanes& planes)
+        : planes_(planes),
+          plane_(std::size_t(planes.header().dims.x * planes.header().dims.y) * value_size(planes.header().type)) {}
+    uint64_t total() const { return uint64_t(plane_.size()) * uint64_t(planes_.header().dims.z); }
+    /// Copies the next n bytes (n <= what is left) to dst.
+    void next(std::byte* dst, std::size_t n) {
+        while (n > 0) {
+            if (at_ == plane_.size() || z_ < 0) {
+                planes_.read(++z_, 1, plane_.data());
+                at_ = 0;
+            }
+            const std::size_t k = std::min(n, plane_.size() - at_);
+            std::memcpy(dst, plane_.data() + at_, k);
+            dst += k;
+            at_ += k;
+            n -= k;
+        }
+    }
+
+private:
+    VolumePlanes& planes_;
+    std::vector<std::byte> plane_;
+    int64_t z_ = -1;
+    std::size_t at_ = 0;
+};
+
+}  // namespace
+
 uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Compression compression,
                        bool gzip_wrapper) {
-    const std::size_t width = value_size(volume.type);
+    auto planes = planes_of(volume);
+    return write_samples(out, *planes, endian, compression, gzip_wrapper);
+}
+
+uint64_t write_samples(AtomicFile& out, VolumePlanes& planes, Endian endian, Compression compression,
+                       bool gzip_wrapper) {
+    const std::size_t width = value_size(planes.header().type);
     const bool swap = endian != host_endian() && width > 1;
-    const std::byte* src = volume.data.data();
-    const uint64_t total = volume.data.size();
+    PlaneBytes src(planes);
+    const uint64_t total = src.total();
     const std::size_t chunk = kIoChunk - kIoChunk % width;
-    std::vector<std::byte> buf;
-    if (swap || compression != Compression::None) buf.resize(std::min<uint64_t>(chunk, total));
+    std::vector<std::byte> buf(std::size_t(std::min<uint64_t>(chunk, total)));
     const uint64_t start = out.size();
 
     if (compression == Compression::None) {
         for (uint64_t done = 0; done < total;) {
             std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(chunk, total - done));
-            if (swap) {
-                std::memcpy(buf.data(), src + done, n);
-                swap_bytes(buf.data(), n, width);
-                out.write(buf.data(), n);
-            } else {
-                out.write(src + done, n);
-            }
+            src.next(buf.data(), n);
+            if (swap) swap_bytes(buf.data(), n, width);
+            out.write(buf.data(), n);
             done += n;
         }
         return out.size() - start;
@@ -288,7 +322,7 @@ uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Com
     do {
         if (zs.avail_in == 0 && flush != Z_FINISH) {
             std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(chunk, total - done));
-            std::memcpy(buf.data(), src + done, n);
+            src.next(buf.data(), n);
             if (swap) swap_bytes(buf.data(), n, width);
             done += n;
             zs.next_in = reinterpret_cast<Bytef*>(buf.data());

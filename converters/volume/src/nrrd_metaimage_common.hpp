@@ -10,6 +10,7 @@
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod::detail {
 
@@ -56,6 +57,9 @@ void check_piece_sizes(const std::vector<DataPiece>& pieces, Compression compres
 /// compressed (gzip wrapper when `gzip`, zlib wrapper otherwise), through a
 /// bounded buffer. Returns the number of bytes appended.
 uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Compression compression,
+                       bool gzip_wrapper);
+/// The same from planes read one after the other (memory: one plane and the buffers).
+uint64_t write_samples(AtomicFile& out, VolumePlanes& planes, Endian endian, Compression compression,
                        bool gzip_wrapper);
 
 // Small text helpers.

@@ -209,6 +209,23 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
     return v;
 }
 
+void write_raw_volume(VolumePlanes& planes, const std::string& path, Endian endian) {
+    const Volume& h = planes.header();
+    const std::size_t elem = value_size(h.type);
+    const std::size_t plane = std::size_t(h.dims.x * h.dims.y) * elem;
+    // A few planes per write: bounded memory, few system calls.
+    const int64_t per = std::max<int64_t>(1, int64_t(kSlabBytes / std::max<std::size_t>(plane, 1)));
+    std::vector<std::byte> buf(std::size_t(std::min(per, h.dims.z)) * plane);
+    AtomicFile out(path);
+    for (int64_t z = 0; z < h.dims.z; z += per) {
+        const int64_t n = std::min(per, h.dims.z - z);
+        planes.read(z, n, buf.data());
+        if (needs_swap(endian)) swap_bytes(buf.data(), std::size_t(n) * plane, elem);
+        out.write(buf.data(), std::size_t(n) * plane);
+    }
+    out.commit();
+}
+
 void write_raw_volume(const Volume& volume, const std::string& path, Endian endian) {
     const std::size_t elem = value_size(volume.type);
     if (volume.data.size() != static_cast<std::size_t>(volume.count()) * elem)

@@ -110,6 +110,21 @@ void write_volume(const Volume& volume, const std::string& path, const std::stri
     built(loc, path).write(volume, loc);
 }
 
+bool volume_format_writes_planes(const std::string& path, const std::string& format) {
+    const VolumeLocation loc = locate_volume(path, format);
+    return loc.format->built && bool(loc.format->write_planes);
+}
+
+void write_volume(VolumePlanes& planes, const std::string& path, const std::string& format) {
+    const VolumeLocation loc = locate_volume(path, format);
+    const VolumeFormat& f = built(loc, path);
+    if (f.write_planes) {
+        f.write_planes(planes, loc);
+        return;
+    }
+    f.write(read_all_planes(planes), loc);
+}
+
 std::vector<std::string> metadata_keys_lost(const Volume& volume, const std::string& path,
                                             const std::string& format) {
     const VolumeLocation loc = locate_volume(path, format);

@@ -28,6 +28,11 @@ VolumeFormat metaimage_volume_format() {
         o.layout = layout(l);
         write_metaimage(v, l.file, o);
     };
+    f.write_planes = [](VolumePlanes& planes, const VolumeLocation& l) {
+        MetaImageWriteOptions o;
+        o.layout = layout(l);
+        write_metaimage(planes, l.file, o);
+    };
     f.lost_metadata = metaimage_unstorable_keys;
     f.companion_files = [](const VolumeLocation& l) {
         const auto lay = layout(l);

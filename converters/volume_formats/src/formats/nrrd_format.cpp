@@ -28,6 +28,11 @@ VolumeFormat nrrd_volume_format() {
         o.layout = layout(l);
         write_nrrd(v, l.file, o);
     };
+    f.write_planes = [](VolumePlanes& planes, const VolumeLocation& l) {
+        NrrdWriteOptions o;
+        o.layout = layout(l);
+        write_nrrd(planes, l.file, o);
+    };
     f.lost_metadata = nrrd_unstorable_keys;
     f.companion_files = [](const VolumeLocation& l) {
         const auto lay = layout(l);

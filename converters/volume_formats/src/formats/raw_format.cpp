@@ -14,6 +14,9 @@ VolumeFormat raw_volume_format() {
         return open_raw_volume_planes(l.file, o);
     };
     f.write = [](const Volume& v, const VolumeLocation& l) { write_raw_volume(v, l.file, Endian::Little); };
+    f.write_planes = [](VolumePlanes& planes, const VolumeLocation& l) {
+        write_raw_volume(planes, l.file, Endian::Little);
+    };
     f.lost_metadata = [](const Volume& v) {
         std::vector<std::string> all;
         for (const auto& [k, value] : v.metadata) all.push_back(k);

@@ -26,7 +26,12 @@ public:
 /// the header's dims and type must be inner's (else InvalidArgument).
 std::unique_ptr<VolumePlanes> with_header(std::unique_ptr<VolumePlanes> inner, Volume header);
 
+/// Every plane read into one volume (with the header's geometry, names and metadata).
+Volume read_all_planes(VolumePlanes& planes);
+
 /// The planes of a volume already in memory (which must outlive the result).
 std::unique_ptr<VolumePlanes> planes_of(const Volume& volume);
+/// The same, owning the volume.
+std::unique_ptr<VolumePlanes> planes_owning(Volume volume);
 
 }  // namespace tetlod

@@ -78,6 +78,14 @@ HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::M
                                                    const std::string& path,
                                                    const HtStreamEncodeOptions& options = {});
 
+/// The original volume of an HT container, read plane by plane: a row of the
+/// finest bricks (2^(brick_log2+1) planes) is decoded at a time, its chunks in
+/// parallel, the coarser chunks through a cache of `cache_bytes` (0: what a
+/// row needs). Memory: one row of planes plus the cache, whatever the grid. The same samples as
+/// decode_volume. Safe on untrusted input: opening validates the layout,
+/// read() throws tetlod::Error naming the container and section.
+Expected<std::unique_ptr<VolumePlanes>> open_ht_planes(const std::string& path, std::size_t cache_bytes = 0);
+
 /// One chunk of the HT data: the grid points of one cycle inside one brick.
 struct HtChunk {
     int cycle = 0;            // t: points are multiples of 2^t, not all of 2^(t+1)

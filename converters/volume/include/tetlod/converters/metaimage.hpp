@@ -29,6 +29,7 @@
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
@@ -50,6 +51,8 @@ struct MetaImageWriteOptions {
 /// report metaimage_unstorable_keys(). Each file is written atomically; a
 /// detached header after its data.
 void write_metaimage(const Volume& volume, const std::string& path, const MetaImageWriteOptions& options = {});
+/// The same from planes read one after the other (the header from planes.header()).
+void write_metaimage(VolumePlanes& planes, const std::string& path, const MetaImageWriteOptions& options = {});
 
 /// The metadata keys write_metaimage leaves out, in key order.
 std::vector<std::string> metaimage_unstorable_keys(const Volume& volume);

@@ -28,6 +28,7 @@
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
@@ -50,6 +51,8 @@ struct NrrdWriteOptions {
 /// never refused: callers report nrrd_unstorable_keys(). Each file is written
 /// atomically; a detached header is written after its data.
 void write_nrrd(const Volume& volume, const std::string& path, const NrrdWriteOptions& options = {});
+/// The same from planes read one after the other (the header from planes.header()).
+void write_nrrd(VolumePlanes& planes, const std::string& path, const NrrdWriteOptions& options = {});
 
 /// The metadata keys write_nrrd leaves out, in key order.
 std::vector<std::string> nrrd_unstorable_keys(const Volume& volume);

@@ -34,6 +34,9 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
 /// checks first, then each read() costs what it reads.
 std::unique_ptr<VolumePlanes> open_raw_volume_planes(const std::string& path, const VolumeReadOptions& options);
 
+/// Writes the samples of planes read one after the other, atomically.
+void write_raw_volume(VolumePlanes& planes, const std::string& path, Endian endian = Endian::Little);
+
 /// Writes the samples (no header) in the given byte order, atomically (the target
 /// is replaced only once the whole file is on disk). Throws tetlod::Error(IoError).
 void write_raw_volume(const Volume& volume, const std::string& path,

@@ -51,6 +51,9 @@ struct VolumeFormat {
     std::function<std::unique_ptr<VolumePlanes>(const VolumeLocation&, const VolumeReadOptions&)> open_planes;
     /// Writes atomically: nothing is left at the target if writing fails.
     std::function<void(const Volume&, const VolumeLocation&)> write;
+    /// Optional: `write` from planes read one after the other (streaming decode):
+    /// the same bytes, one plane in memory. Empty: the volume is written whole.
+    std::function<void(VolumePlanes&, const VolumeLocation&)> write_planes;
     /// Metadata keys of the volume that `write` leaves out (empty: none).
     std::function<std::vector<std::string>(const Volume&)> lost_metadata;
     /// Optional: other files `write` creates beside `file` (a detached header's data file).

@@ -37,6 +37,12 @@ std::unique_ptr<VolumePlanes> open_volume_planes(const std::string& path, const 
 /// nothing is left at the target if writing fails.
 void write_volume(const Volume& volume, const std::string& path, const std::string& format = "");
 
+/// True when the format `path` (or `format`) names writes plane by plane.
+bool volume_format_writes_planes(const std::string& path, const std::string& format = "");
+/// write_volume from planes read one after the other (one plane in memory)
+/// where the format can (volume_format_writes_planes); else the planes are
+/// read into a volume first. Same bytes either way.
+void write_volume(VolumePlanes& planes, const std::string& path, const std::string& format = "");
 /// The metadata keys of `volume` that write_volume(volume, path, format) leaves
 /// out because the format cannot hold them (raw: every key; the others: keys
 /// their syntax cannot express). Writers never refuse such metadata; callers
