@@ -23,6 +23,7 @@
 #include "tetlod/core/utf8.hpp"
 #include "tetlod/core/value_type.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 #include "tetlod/core/zeroed_allocator.hpp"
 
 // Models and their queries.

@@ -1,0 +1,158 @@
+// Volumes plane by plane, as a third party uses them: a container read back
+// plane by plane (open_container_planes) gives the samples of the whole decode
+// for any order of reads and any cache, including one that keeps nothing;
+// writers fed planes write the bytes of writing the whole volume; a raw file
+// read by offset gives its samples; a corrupt chunk met while reading planes
+// is an error naming the container, and the output is not left behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+
+#include "tetlod/tetlod.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace tetlod;
+
+std::string tmp(const std::string& name) { return std::string(TETLOD_TEST_TMP) + "/planes_" + name; }
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+struct Case {
+    Dims dims;
+    ValueType type;
+    bool pad;
+    int brick_log2;
+};
+
+std::vector<Case> cases() {
+    return {{{2, 2, 2}, ValueType::U8, false, 4},       {{19, 3, 40}, ValueType::I16, false, 1},
+            {{33, 17, 70}, ValueType::F32, true, 2},    {{70, 41, 66}, ValueType::U8, false, 1},
+            {{40, 45, 37}, ValueType::F64, false, 4},   {{36, 35, 34}, ValueType::U32, true, 1}};
+}
+
+std::string name_of(const Case& c) {
+    return std::to_string(c.dims.x) + "x" + std::to_string(c.dims.y) + "x" + std::to_string(c.dims.z) + " " +
+           value_type_name(c.type) + (c.pad ? " padded" : "") + " g" + std::to_string(c.brick_log2);
+}
+
+std::vector<std::byte> read_planes(VolumePlanes& p, const std::vector<int64_t>& order) {
+    const Dims d = p.header().dims;
+    const std::size_t plane = std::size_t(d.x * d.y) * value_size(p.header().type);
+    std::vector<std::byte> out(plane * std::size_t(d.z));
+    for (int64_t z : order) p.read(z, 1, out.data() + std::size_t(z) * plane);
+    return out;
+}
+
+}  // namespace
+
+TEST(VolumePlanes, ContainerPlanesEqualTheWholeDecodeInAnyOrderAndCache) {
+    for (const Case& c : cases()) {
+        SCOPED_TRACE(name_of(c));
+        Volume v = make_sample_volume("multiscale", c.dims, c.type);
+        v.metadata["who"] = "test";
+        const std::string path = tmp("c.tlod");
+        ContainerWriteOptions o;
+        o.pad = c.pad;
+        o.brick_log2 = c.brick_log2;
+        o.zstd_level = 3;
+        write_container(Volume(v), path, o);
+        const Volume whole = decode_container(path).take();
+        ASSERT_TRUE(whole.data == v.data);
+        std::vector<int64_t> forward(std::size_t(c.dims.z)), backward, shuffled;
+        for (int64_t z = 0; z < c.dims.z; ++z) forward[std::size_t(z)] = z;
+        backward.assign(forward.rbegin(), forward.rend());
+        shuffled = forward;
+        std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(7));
+        for (std::size_t cache : {std::size_t{0}, std::size_t{1}}) {  // what a row needs; nothing kept
+            for (const auto* order : {&forward, &backward, &shuffled}) {
+                auto planes = open_container_planes(path, cache).take();
+                EXPECT_EQ(planes->header().dims, c.dims);
+                EXPECT_EQ(planes->header().type, c.type);
+                EXPECT_EQ(planes->header().spacing, whole.spacing);
+                EXPECT_EQ(planes->header().metadata, whole.metadata);
+                const auto got = read_planes(*planes, *order);
+                EXPECT_TRUE(got.size() == whole.data.size() &&
+                            std::equal(got.begin(), got.end(), whole.data.begin()))
+                    << "cache " << cache << " order " << (order == &forward ? "forward" : order == &backward ? "backward" : "shuffled");
+            }
+            // Several planes in one read, across rows of bricks.
+            auto planes = open_container_planes(path, cache).take();
+            std::vector<std::byte> all(whole.data.size());
+            planes->read(0, c.dims.z, all.data());
+            EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
+        }
+    }
+}
+
+TEST(VolumePlanes, WritersFedPlanesWriteTheWholeVolumesBytes) {
+    Volume v = make_sample_volume("multiscale", Dims{23, 31, 37}, ValueType::I16);
+    v.metadata["patient"] = "anon";
+    v.spacing = {0.5, 0.25, 2};
+    for (const char* ext : {"raw", "nrrd", "nhdr", "mha", "mhd"}) {
+        SCOPED_TRACE(ext);
+        const std::string a = tmp(std::string("whole.") + ext), b = tmp(std::string("planes.") + ext);
+        write_volume(v, a);
+        auto planes = planes_of(v);
+        write_volume(*planes, b);
+        EXPECT_EQ(volume_format_writes_planes(b), true);
+        std::string sa = slurp(a), sb = slurp(b);
+        // Detached headers name their own data file.
+        if (std::string(ext) == "nhdr" || std::string(ext) == "mhd") {
+            EXPECT_EQ(slurp(tmp("whole.raw")).size(), slurp(tmp("planes.raw")).size());
+            for (auto* s : {&sa, &sb}) {
+                const auto at = s->find(std::string(ext) == "nhdr" ? "data file:" : "ElementDataFile");
+                ASSERT_NE(at, std::string::npos);
+                s->resize(at);
+            }
+        }
+        EXPECT_EQ(sa, sb);
+    }
+}
+
+TEST(VolumePlanes, RawFilesAreReadByOffset) {
+    const Volume v = make_sample_volume("multiscale", Dims{17, 9, 21}, ValueType::F32);
+    const std::string path = tmp("r_17x9x21_float32.raw");
+    write_volume(v, path);
+    auto planes = open_volume_planes(path);
+    ASSERT_TRUE(planes);
+    EXPECT_EQ(planes->header().dims, v.dims);
+    const std::size_t plane = std::size_t(17 * 9) * 4;
+    std::vector<std::byte> got(plane * 3);
+    planes->read(5, 3, got.data());
+    EXPECT_TRUE(std::equal(got.begin(), got.end(), v.data.begin() + std::ptrdiff_t(5 * plane)));
+    EXPECT_THROW(planes->read(20, 2, got.data()), Error);  // past the last plane
+    // Formats read whole have no plane reader.
+    write_volume(v, tmp("r.nrrd"));
+    EXPECT_FALSE(open_volume_planes(tmp("r.nrrd")));
+}
+
+TEST(VolumePlanes, CorruptChunkIsAnErrorNamingTheContainer) {
+    const Volume v = make_sample_volume("multiscale", Dims{40, 40, 40}, ValueType::U8);
+    const std::string path = tmp("bad.tlod");
+    ContainerWriteOptions o;
+    o.zstd_level = 3;
+    write_container(Volume(v), path, o);
+    // Flip a byte near the end: inside the finest cycle's last chunks.
+    std::string bytes = slurp(path);
+    bytes[bytes.size() - 40] = char(bytes[bytes.size() - 40] ^ 0x5a);
+    std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    auto planes = open_container_planes(path).take();
+    const std::string out = tmp("bad_out.raw");
+    fs::remove(out);
+    try {
+        write_volume(*planes, out);
+        FAIL() << "a corrupt chunk was decoded";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(out));
+}
