@@ -1,4 +1,5 @@
-// Cost against volume size: conversion, and fixed queries extracted from the
+// Cost against volume size: conversion (plane by plane, at the default budget
+// and at 512 MiB, beside the in-memory path, checking the bytes agree), and fixed queries extracted from the
 // container, each in a fresh process so its peak RSS (wait4) is its own. The
 // peer in the same run is the same query on the volume in memory (read the raw
 // file, build the HT, extract), which costs in proportion to the volume by
@@ -25,6 +26,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -123,6 +126,11 @@ VolumeReadOptions raw_options(const Dims& d, ValueType t) {
     return o;
 }
 
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 Dims parse_dims(const std::string& s) {
     Dims d;
     std::sscanf(s.c_str(), "%lld,%lld,%lld", reinterpret_cast<long long*>(&d.x), reinterpret_cast<long long*>(&d.y),
@@ -132,11 +140,21 @@ Dims parse_dims(const std::string& s) {
 
 // ---- children ----
 
-int child_convert(const std::string& raw, const std::string& dims, const std::string& type, const std::string& out) {
-    Volume v = read_volume_file(raw, raw_options(parse_dims(dims), *parse_value_type(type))).take();
+// mode: "planes" (read plane by plane, default budget), "planes512" (512 MiB
+// budget), "memory" (the whole volume read, then the in-memory HT: the peer).
+int child_convert(const std::string& raw, const std::string& dims, const std::string& type, const std::string& out,
+                  const std::string& mode) {
     ContainerWriteOptions o;
     o.created = 0;
-    const auto s = write_container(std::move(v), out, o);
+    ContainerWriteSummary s;
+    if (mode == "memory") {
+        Volume v = read_volume_file(raw, raw_options(parse_dims(dims), *parse_value_type(type))).take();
+        s = write_container(std::move(v), out, o);
+    } else {
+        auto planes = open_volume_planes(raw, raw_options(parse_dims(dims), *parse_value_type(type)));
+        if (mode == "planes512") o.memory_bytes = std::size_t{512} << 20;
+        s = write_container(*planes, out, o);
+    }
     std::printf("%llu\n", static_cast<unsigned long long>(s.bytes));
     return 0;
 }
@@ -201,7 +219,7 @@ std::string mb(double v) {
 
 int main(int argc, char** argv) {
     std::vector<std::string> a(argv + 1, argv + argc);
-    if (a.size() == 5 && a[0] == "--convert") return child_convert(a[1], a[2], a[3], a[4]);
+    if (a.size() == 6 && a[0] == "--convert") return child_convert(a[1], a[2], a[3], a[4], a[5]);
     if (a.size() == 3 && a[0] == "--container-query") return child_container_query(a[1], std::stoi(a[2]));
     if (a.size() == 5 && a[0] == "--memory-query") return child_memory_query(a[1], a[2], a[3], std::stoi(a[4]));
     if (a.size() == 4 && a[0] == "--full") return child_full(a[1], a[2] == "-" ? "" : a[2], a[3]);
@@ -246,16 +264,32 @@ int main(int argc, char** argv) {
     }
     all.insert(all.end(), inputs.begin(), inputs.end());
 
-    std::printf("%-26s %10s %9s %10s %12s\n", "volume", "points", "convert", "peak RSS", ".tlod");
+    std::printf("convert: plane by plane (default budget: a quarter of RAM; and --memory 512M) | peer: the volume in memory\n");
+    std::printf("%-26s %10s %9s %10s %9s %10s | %9s %10s %12s %s\n", "volume", "points", "planes", "peak RSS", "512M",
+                "peak RSS", "memory", "peak RSS", ".tlod", "same bytes");
     std::vector<std::string> containers;
     for (const Input& in : all) {
-        const std::string tlod = dir + "/" + std::filesystem::path(in.raw).stem().string() + ".tlod";
-        std::filesystem::remove(tlod);
+        const std::string stem = dir + "/" + std::filesystem::path(in.raw).stem().string();
+        const std::string tlod = stem + ".tlod";
         const std::string d = std::to_string(in.dims.x) + "," + std::to_string(in.dims.y) + "," + std::to_string(in.dims.z);
-        const Child c = run_child({"--convert", in.raw, d, value_type_name(in.type), tlod});
-        std::printf("%-26s %10lld %8.1fs %10s %12s%s\n", in.name.c_str(), static_cast<long long>(in.dims.count()),
-                    c.seconds, mb(c.peak_mb).c_str(), format_bytes(std::filesystem::file_size(tlod)).c_str(),
-                    c.status == 0 ? "" : "  FAILED");
+        Child c[3];
+        const char* modes[3] = {"planes", "planes512", "memory"};
+        std::string bytes[3];
+        for (int m = 0; m < 3; ++m) {
+            const std::string out = m == 0 ? tlod : stem + "." + modes[m] + ".tlod";
+            std::filesystem::remove(out);
+            c[m] = run_child({"--convert", in.raw, d, value_type_name(in.type), out, modes[m]});
+            bytes[m] = slurp(out);
+            if (m > 0) std::filesystem::remove(out);
+        }
+        const bool same = !bytes[0].empty() && bytes[0] == bytes[1] && bytes[0] == bytes[2];
+        bool failed = false;
+        for (const Child& x : c) failed = failed || x.status != 0;
+        std::printf("%-26s %10lld %8.1fs %10s %8.1fs %10s | %8.1fs %10s %12s %s%s\n", in.name.c_str(),
+                    static_cast<long long>(in.dims.count()), c[0].seconds, mb(c[0].peak_mb).c_str(), c[1].seconds,
+                    mb(c[1].peak_mb).c_str(), c[2].seconds, mb(c[2].peak_mb).c_str(),
+                    format_bytes(std::filesystem::file_size(tlod)).c_str(), same ? "yes" : "NO",
+                    failed ? "  FAILED" : "");
         std::fflush(stdout);
         containers.push_back(tlod);
     }

@@ -38,8 +38,10 @@ MeshWriteOptions mesh_write_options(const ExtractArgs& a) {
 /// without -q or --no-progress).
 class ProgressSink final : public TetMeshSink {
 public:
-    explicit ProgressSink(TetMeshSink& to) : to_(to) {}
+    /// `before`: the bar of the refinement, erased when writing starts.
+    explicit ProgressSink(TetMeshSink& to, std::optional<ProgressBar>* before = nullptr) : to_(to), before_(before) {}
     void begin(const TetMesh& v, uint64_t n) override {
+        if (before_) before_->reset();
         total_ = n;
         bar_.emplace("writing", "tets");
         to_.begin(v, n);
@@ -57,6 +59,7 @@ public:
 
 private:
     TetMeshSink& to_;
+    std::optional<ProgressBar>* before_;
     std::optional<ProgressBar> bar_;
     uint64_t total_ = 0, done_ = 0;
 };
@@ -73,14 +76,22 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
     const auto error_out = a.lod.error_out_threshold();
     // The mesh streams into the writer (memory does not grow with the tets).
     const auto sink = open_mesh_stream(a.output, a.format, mesh_write_options(a));
-    ProgressSink shown(*sink);
+    // Refining: the chunks read so far, of all the file holds (a coarse or
+    // local query reads few of them).
+    std::optional<ProgressBar> reading;
+    reading.emplace("refining", "chunks read");
+    ContainerExtractOptions options = extract_options(a);
+    options.progress = [&](uint64_t done, uint64_t total) {
+        if (reading) reading->update(done, total);
+    };
+    ProgressSink shown(*sink, &reading);
     const ContainerExtract x =
         extract_from_container_to(a.input, model, a.lod.region_query(nullptr), shown,
                                   [&](LodQuery& q, const std::array<double, 2>& range) {
                                       q.error_in = error_in.resolve(range);
                                       q.error_out = error_out.resolve(range);
                                   },
-                                  extract_options(a))
+                                  options)
             .take();
     auto& o = out();
     if (model == ModelKind::Mt) {

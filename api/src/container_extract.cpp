@@ -66,6 +66,7 @@ Expected<ContainerExtract> extract(const std::string& path, ModelKind model, Lod
     HtLazyStats lazy;
     HtLazyOptions lo;
     lo.cache_bytes = options.cache_bytes;
+    lo.progress = options.progress;
     if (sink) {
         TetMeshCounter counted(*sink);
         auto done = extract_ht_lazy_to(*r, query, counted, &stats, &lazy, lo);

@@ -164,6 +164,9 @@ struct ContainerExtractOptions {
     /// HT: budget of the decoded-chunk cache (a query examining more decodes
     /// chunks again: same mesh, more time).
     std::size_t cache_bytes = std::size_t{1024} << 20;
+    /// HT: called as chunks are decoded with (distinct chunks decoded, chunks
+    /// in the file), from the decoding thread, one call at a time.
+    std::function<void(uint64_t decoded, uint64_t total)> progress;
 };
 
 /// The mesh of `query` from the container's `model`: the HT lazily (one

@@ -84,6 +84,7 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
         slot.seen = true;
         stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
         stats_.decodes += 1;
+        if (on_decode_) on_decode_(stats_);
     }
     decoded_.notify_all();
     std::shared_ptr<const DecodedChunk> c = slot.chunk;
@@ -123,6 +124,7 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
     stats_.distinct += slot.seen ? 0 : 1;
     slot.seen = true;
     stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
+    if (on_decode_) on_decode_(stats_);
     return c;
 }
 

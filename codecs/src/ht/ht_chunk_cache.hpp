@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <condition_variable>
+#include <functional>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -61,6 +62,8 @@ public:
     std::shared_ptr<const DecodedChunk> decode_uncached(std::size_t id, bool errors);
 
     ChunkCacheStats stats() const;
+    /// Called after each decoding (under the cache's lock: one call at a time).
+    void on_decode(std::function<void(const ChunkCacheStats&)> f) { on_decode_ = std::move(f); }
     const HtLayout& layout() const { return L_; }
 
 private:
@@ -95,6 +98,7 @@ private:
     int depth_ = 0;  // nesting of decodings in progress
     std::vector<std::shared_ptr<const DecodedChunk>> pinned_;  // fetched by the decoding in progress
     ChunkCacheStats stats_;
+    std::function<void(const ChunkCacheStats&)> on_decode_;
 };
 
 /// HtSampleSource over a chunk cache: remembers the last chunk per cycle, so

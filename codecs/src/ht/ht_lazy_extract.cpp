@@ -29,6 +29,12 @@ void report(const HtLayout& L, const HtChunkCache& cache, const tlod::ContainerR
     ls->bytes_read = r.bytes_read();
 }
 
+void watch(HtChunkCache& cache, const HtLayout& L, const HtLazyOptions& o) {
+    if (!o.progress) return;
+    const uint64_t total = L.chunks.size();
+    cache.on_decode([&o, total](const ChunkCacheStats& s) { o.progress(s.distinct, total); });
+}
+
 }  // namespace
 
 Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& query, HtExtractStats* es,
@@ -37,6 +43,7 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
     if (!layout) return layout.failure();
     const HtLayout& L = *layout;
     HtChunkCache cache(r, L, options.cache_bytes);
+    watch(cache, L, options);
     CachedSampleSource source(cache);
     auto mesh = capture([&] { return refine_ht(L.domain, source, query, es); });
     if (!mesh) return mesh.failure();
@@ -54,6 +61,7 @@ Expected<Done> extract_ht_lazy_to(tlod::ContainerReader& r, const LodQuery& quer
     if (!layout) return layout.failure();
     const HtLayout& L = *layout;
     HtChunkCache cache(r, L, options.cache_bytes);
+    watch(cache, L, options);
     CachedSampleSource source(cache);
     auto done = capture([&] { refine_ht_to(L.domain, source, query, labels_of(L.metadata), sink, es); });
     if (!done) return done.failure();

@@ -147,6 +147,9 @@ struct HtLazyOptions {
     /// Budget of the decoded-chunk cache. Below what a query examines, chunks
     /// are decoded again: same mesh, more time.
     std::size_t cache_bytes = std::size_t{1024} << 20;
+    /// Called after each chunk decoding as (distinct chunks decoded, chunks in
+    /// the file), from whichever thread decoded it, one call at a time.
+    std::function<void(uint64_t decoded, uint64_t total)> progress;
 };
 /// The LOD mesh of `query`, equal to the extraction from the fully decoded
 /// model, in one refinement pass that decodes on demand only the chunks
