@@ -71,5 +71,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         } catch (const Error&) {
         }
     }
+    {  // the volume plane by plane: a row of the finest bricks, its chunks decoded in parallel
+        auto r = tlod::ContainerReader::from_memory(file);
+        if (!r) return 0;
+        auto planes = open_ht_planes(std::move(*r), std::size_t{1} << 20);
+        if (!planes) return 0;
+        const Dims d = (*planes)->header().dims;
+        const std::size_t plane = std::size_t(d.x * d.y) * value_size((*planes)->header().type);
+        if (plane > (std::size_t{1} << 24)) return 0;  // the harness's own buffer, not the decoder's
+        std::vector<std::byte> buf(plane);
+        try {
+            (*planes)->read(d.z - 1, 1, buf.data());
+        } catch (const Error&) {
+        }
+    }
     return 0;
 }

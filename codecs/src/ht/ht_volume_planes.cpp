@@ -59,7 +59,16 @@ private:
     void decode_row(int64_t row) {
         row_ = -1;
         const int64_t zlo = row * side0_, zhi = std::min(sd_.z - 1, zlo + side0_ - 1);
-        rows_.assign(std::size_t(zhi - zlo + 1) * std::size_t(sd_.x * sd_.y) * vs_, std::byte{0});
+        // Fresh zero pages, committed as chunks fill them: a hostile header's
+        // claimed planes cost only what its chunks really decode.
+        try {
+            rows_ = ZeroedVector<std::byte>();
+            rows_ = ZeroedVector<std::byte>(std::size_t(zhi - zlo + 1) * std::size_t(sd_.x * sd_.y) * vs_);
+        } catch (const std::bad_alloc&) {
+            throw Error(ErrorCode::TooLarge, r_.name() + ": not enough memory for a row of " +
+                                                 std::to_string(zhi - zlo + 1) + " planes of " +
+                                                 std::to_string(sd_.x) + "x" + std::to_string(sd_.y));
+        }
         for (int t = G_.k; t >= 0; --t) {
             const auto nb = G_.bricks(t);
             const int64_t side = G_.side(t);
@@ -112,19 +121,23 @@ private:
     Volume header_;
     std::vector<std::size_t> first_;
     int64_t row_ = -1;
-    std::vector<std::byte> rows_;
+    ZeroedVector<std::byte> rows_;
 };
 
 }  // namespace
 
+Expected<std::unique_ptr<VolumePlanes>> open_ht_planes(tlod::ContainerReader reader, std::size_t cache_bytes) {
+    auto layout = read_ht_layout(reader);
+    if (!layout) return layout.failure();
+    return capture([&]() -> std::unique_ptr<VolumePlanes> {
+        return std::make_unique<HtContainerPlanes>(std::move(reader), std::move(*layout), cache_bytes);
+    });
+}
+
 Expected<std::unique_ptr<VolumePlanes>> open_ht_planes(const std::string& path, std::size_t cache_bytes) {
     auto r = tlod::ContainerReader::open(path);
     if (!r) return r.failure();
-    auto layout = read_ht_layout(*r);
-    if (!layout) return layout.failure();
-    return capture([&]() -> std::unique_ptr<VolumePlanes> {
-        return std::make_unique<HtContainerPlanes>(std::move(*r), std::move(*layout), cache_bytes);
-    });
+    return open_ht_planes(std::move(*r), cache_bytes);
 }
 
 }  // namespace tetlod

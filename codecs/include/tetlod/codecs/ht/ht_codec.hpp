@@ -85,6 +85,8 @@ HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::M
 /// decode_volume. Safe on untrusted input: opening validates the layout,
 /// read() throws tetlod::Error naming the container and section.
 Expected<std::unique_ptr<VolumePlanes>> open_ht_planes(const std::string& path, std::size_t cache_bytes = 0);
+/// The same over an open container (a file or bytes in memory).
+Expected<std::unique_ptr<VolumePlanes>> open_ht_planes(tlod::ContainerReader reader, std::size_t cache_bytes = 0);
 
 /// One chunk of the HT data: the grid points of one cycle inside one brick.
 struct HtChunk {
