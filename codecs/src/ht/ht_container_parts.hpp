@@ -31,24 +31,34 @@ inline std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
 /// reports them without decoding any chunk: the largest finite stored bound
 /// and the number of always-split diamonds.
 struct ErrorSummary {
-    float max_finite = 0;
-    uint64_t always_split = 0;
+    explicit ErrorSummary(int m = 0)
+        : m_(m), limit_(dequantize_error(uint16_t(max_error_code(m) - 1), m)) {}
 
-    void add(float error, int m) {
-        const float q = dequantize_error(quantize_error(error, m), m);
-        if (std::isinf(q)) ++always_split;
-        else max_finite = std::max(max_finite, q);
+    /// The stored bound of `error` is dequantize(quantize(error)): infinite
+    /// above the largest finite code, and quantize is monotone, so the largest
+    /// finite stored bound is the stored bound of the largest error below it.
+    void add(float error) {
+        if (!(error <= limit_)) ++always_split;  // NaN too
+        else if (error > raw_max_) raw_max_ = error;
     }
     void merge(const ErrorSummary& o) {
-        max_finite = std::max(max_finite, o.max_finite);
+        raw_max_ = std::max(raw_max_, o.raw_max_);
         always_split += o.always_split;
     }
+    float max_finite() const { return dequantize_error(quantize_error(raw_max_, m_), m_); }
     void write_to(tlod::Metadata& md) const {
         char buf[64];
-        std::snprintf(buf, sizeof buf, "%.9g", double(max_finite));
+        std::snprintf(buf, sizeof buf, "%.9g", double(max_finite()));
         md.format_keys[tlod::kKeyHtErrorMax] = buf;
         md.format_keys[tlod::kKeyHtAlwaysSplit] = std::to_string(always_split);
     }
+
+    uint64_t always_split = 0;
+
+private:
+    int m_;
+    float limit_;
+    float raw_max_ = 0;
 };
 
 }  // namespace tetlod::ht_detail

@@ -27,8 +27,8 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
 
     tlod::Metadata md = meta;
     {
-        ErrorSummary summary;
-        for (float v : model.diamond_errors()) summary.add(v, m);
+        ErrorSummary summary(m);
+        for (float v : model.diamond_errors()) summary.add(v);
         summary.write_to(md);
     }
     writer.set_features(tlod::kFeatureHt);

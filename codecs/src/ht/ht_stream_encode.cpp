@@ -145,27 +145,54 @@ private:
         for (int64_t z0 = 0; z0 <= zmax_; z0 += per) {
             const int64_t n = std::min(per, zmax_ + 1 - z0);
             planes_.read(z0, n, reinterpret_cast<std::byte*>(buf.data()));
+            // Range and finiteness over the source's samples, plane by plane in
+            // parallel, combined in plane order (the first minimum and the first
+            // non-finite value are those a scan in file order finds).
+            struct PlaneScan {
+                bool any = false;
+                T lo{}, hi{};
+                int64_t bad_x = -1, bad_y = -1;
+            };
+            std::vector<PlaneScan> scans(static_cast<std::size_t>(n));
+            tbb::parallel_for(int64_t(0), n, [&](int64_t i) {
+                if (z0 + i >= sd.z) return;
+                PlaneScan& ps = scans[std::size_t(i)];
+                const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+                for (int64_t y = 0; y < sd.y; ++y) {
+                    const T* row = plane + y * G_.nx;
+                    for (int64_t x = 0; x < sd.x; ++x) {
+                        const T v = row[x];
+                        if constexpr (std::is_floating_point_v<T>) {
+                            if (!std::isfinite(v)) {
+                                ps.bad_x = x;
+                                ps.bad_y = y;
+                                return;
+                            }
+                        }
+                        if (!ps.any) ps.lo = ps.hi = v, ps.any = true;
+                        ps.lo = v < ps.lo ? v : ps.lo;
+                        ps.hi = v > ps.hi ? v : ps.hi;
+                    }
+                }
+            });
+            for (int64_t i = 0; i < n; ++i) {
+                const PlaneScan& ps = scans[std::size_t(i)];
+                if (ps.bad_x >= 0) {
+                    const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+                    throw Error(ErrorCode::CorruptData,
+                                "the volume holds a non-finite value (" +
+                                    std::to_string(double(plane[ps.bad_y * G_.nx + ps.bad_x])) + ") at (" +
+                                    std::to_string(ps.bad_x) + "," + std::to_string(ps.bad_y) + "," +
+                                    std::to_string(z0 + i) + "); the HT needs finite values everywhere");
+                }
+                if (!ps.any) continue;
+                if (!any) lo = ps.lo, hi = ps.hi, any = true;
+                lo = ps.lo < lo ? ps.lo : lo;
+                hi = ps.hi > hi ? ps.hi : hi;
+            }
             for (int64_t i = 0; i < n; ++i) {
                 const int64_t z = z0 + i;
                 const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
-                if (z < sd.z) {  // range and finiteness over the source's samples
-                    for (int64_t y = 0; y < sd.y; ++y) {
-                        const T* row = plane + y * G_.nx;
-                        for (int64_t x = 0; x < sd.x; ++x) {
-                            const T v = row[x];
-                            if constexpr (std::is_floating_point_v<T>) {
-                                if (!std::isfinite(v))
-                                    throw Error(ErrorCode::CorruptData,
-                                                "the volume holds a non-finite value (" + std::to_string(double(v)) +
-                                                    ") at (" + std::to_string(x) + "," + std::to_string(y) + "," +
-                                                    std::to_string(z) + "); the HT needs finite values everywhere");
-                            }
-                            if (!any) lo = hi = v, any = true;
-                            lo = v < lo ? v : lo;
-                            hi = v > hi ? v : hi;
-                        }
-                    }
-                }
                 constexpr int s = HtErrorSweep::kCoarseShift;
                 if ((z & ((int64_t{1} << s) - 1)) != 0) continue;
                 T* out = reinterpret_cast<T*>(coarse.data()) + std::size_t((z >> s) * cd.y * cd.x);
@@ -295,7 +322,7 @@ private:
         const std::size_t per_row = std::size_t(nb[0] * nb[1]);
         const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
         std::vector<std::vector<std::byte>> fs(per_row), es(per_row);
-        std::vector<ErrorSummary> sums(per_row);
+        std::vector<ErrorSummary> sums(per_row, ErrorSummary(m_));
         const std::span<const float> errors(r.errors);
         tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
             const HtChunk& c = chunks_[base + j];
@@ -303,7 +330,7 @@ private:
             es[j] = encode_error_chunk_v2<T>(r.window, r.values.data(), errors, c, m_);
             if (c.diamonds > 0)
                 G_.for_each_point(r.t, c.box, [&](int64_t x, int64_t y, int64_t z) {
-                    sums[j].add(errors[std::size_t(r.window.index(x, y, z))], m_);
+                    sums[j].add(errors[std::size_t(r.window.index(x, y, z))]);
                 });
         });
         for (std::size_t j = 0; j < per_row; ++j) {
@@ -377,7 +404,7 @@ private:
     SpillFile spill_;
     std::vector<SpilledChunk> spilled_;
     std::vector<Rows> rows_;
-    ErrorSummary errors_;
+    ErrorSummary errors_{m_};
     int64_t zmax_ = 0;
 };
 
