@@ -322,17 +322,29 @@ private:
         const std::size_t per_row = std::size_t(nb[0] * nb[1]);
         const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
         std::vector<std::vector<std::byte>> fs(per_row), es(per_row);
-        std::vector<ErrorSummary> sums(per_row, ErrorSummary(m_));
         const std::span<const float> errors(r.errors);
         tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
             const HtChunk& c = chunks_[base + j];
             fs[j] = encode_field_chunk_v2<T>(r.window, r.values.data(), c);
             es[j] = encode_error_chunk_v2<T>(r.window, r.values.data(), errors, c, m_);
-            if (c.diamonds > 0)
-                G_.for_each_point(r.t, c.box, [&](int64_t x, int64_t y, int64_t z) {
-                    sums[j].add(errors[std::size_t(r.window.index(x, y, z))]);
-                });
         });
+        if (!r.errors.empty()) {
+            // The row's errors, plane by plane, at the centres of cycle t only
+            // (lattice points not all of whose coordinates are even multiples).
+            const int64_t p0 = (r.row_lo() - r.wlo + r.h - 1) >> r.t, p1 = (r.row_hi(zmax_) - r.wlo) >> r.t;
+            std::vector<ErrorSummary> sums(std::size_t(p1 - p0 + 1), ErrorSummary(m_));
+            tbb::parallel_for(p0, p1 + 1, [&](int64_t p) {
+                const float* e = r.errors.data() + std::size_t(p * r.plane_points);
+                ErrorSummary& sum = sums[std::size_t(p - p0)];
+                const bool z_even = (((r.wlo >> r.t) + p) & 1) == 0;
+                for (int64_t yi = 0; yi < r.ny; ++yi) {
+                    const float* row = e + yi * r.nx;
+                    const int64_t step = z_even && (yi & 1) == 0 ? 2 : 1;
+                    for (int64_t xi = step - 1; xi < r.nx; xi += step) sum.add(row[xi]);
+                }
+            });
+            for (const ErrorSummary& sum : sums) errors_.merge(sum);
+        }
         for (std::size_t j = 0; j < per_row; ++j) {
             SpilledChunk& s = spilled_[base + j];
             s.field_offset = spill_.size();
@@ -343,7 +355,6 @@ private:
             s.error_size = es[j].size();
             s.error_checksum = tlod::checksum64(es[j]);
             spill_.write(es[j].data(), es[j].size());
-            errors_.merge(sums[j]);
         }
         // Slide: the next row's window starts h below it; keep the planes from there.
         const int64_t old = r.wlo;
