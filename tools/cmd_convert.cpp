@@ -71,7 +71,9 @@ int run_convert(const ConvertArgs& a) {
     } else {
         if (!a.memory.empty() && !a.in_memory)
             detail("note: " + a.input + " is read whole (" +
-                   std::string(with_mt ? "the MT is built in memory" : "its format is not read plane by plane") +
+                   std::string(with_mt ? "the MT is built in memory"
+                                       : "only raw, and NRRD/MetaImage with one uncompressed data block, "
+                                         "are read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);

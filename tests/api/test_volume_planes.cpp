@@ -130,9 +130,35 @@ TEST(VolumePlanes, RawFilesAreReadByOffset) {
     planes->read(5, 3, got.data());
     EXPECT_TRUE(std::equal(got.begin(), got.end(), v.data.begin() + std::ptrdiff_t(5 * plane)));
     EXPECT_THROW(planes->read(20, 2, got.data()), Error);  // past the last plane
-    // Formats read whole have no plane reader.
-    write_volume(v, tmp("r.nrrd"));
-    EXPECT_FALSE(open_volume_planes(tmp("r.nrrd")));
+    // NRRD and MetaImage with one uncompressed data block, attached or
+    // detached, by offset too; compressed ones are read whole (no planes).
+    NrrdWriteOptions gz;
+    gz.gzip = true;
+    write_nrrd(v, tmp("gz.nrrd"), gz);
+    EXPECT_FALSE(open_volume_planes(tmp("gz.nrrd")));
+    MetaImageWriteOptions packed;
+    packed.compress = true;
+    write_metaimage(v, tmp("z.mha"), packed);
+    EXPECT_FALSE(open_volume_planes(tmp("z.mha")));
+    MetaImageWriteOptions plain;
+    plain.compress = false;
+    write_metaimage(v, tmp("p.mha"), plain);
+    write_metaimage(v, tmp("p.mhd"), plain);
+    NrrdWriteOptions be;
+    be.endian = Endian::Big;
+    write_nrrd(v, tmp("be.nrrd"), be);
+    for (const char* name : {"p.mha", "p.mhd", "be.nrrd", "a.nhdr"}) {
+        SCOPED_TRACE(name);
+        if (std::string(name) == "a.nhdr") write_volume(v, tmp(name));
+        auto p = open_volume_planes(tmp(name));
+        ASSERT_TRUE(p);
+        const Volume whole = read_volume(tmp(name));
+        EXPECT_EQ(p->header().spacing, whole.spacing);
+        EXPECT_EQ(p->header().metadata, whole.metadata);
+        std::vector<std::byte> all(whole.data.size());
+        p->read(0, v.dims.z, all.data());
+        EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
+    }
 }
 
 TEST(VolumePlanes, CorruptChunkIsAnErrorNamingTheContainer) {

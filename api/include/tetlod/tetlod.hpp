@@ -50,6 +50,8 @@
 #include "tetlod/converters/medit_writer.hpp"
 #include "tetlod/converters/mesh_format.hpp"
 #include "tetlod/converters/mesh_writer.hpp"
+#include "tetlod/converters/metaimage.hpp"
+#include "tetlod/converters/nrrd.hpp"
 #include "tetlod/converters/raw_volume.hpp"
 #include "tetlod/converters/sample_volumes.hpp"
 #include "tetlod/converters/volume_format.hpp"

@@ -179,7 +179,17 @@ std::vector<double> numbers(const std::string& v, std::size_t n, const std::stri
 
 }  // namespace
 
-Volume read_metaimage(const std::string& path, const VolumeReadOptions& options) {
+namespace {
+
+/// A MetaImage's header as a volume header (no samples) and where its samples are.
+struct MetaImageSource {
+    Volume header;
+    std::vector<DataPiece> pieces;
+    Compression compression = Compression::None;
+    Endian endian = Endian::Little;
+};
+
+MetaImageSource parse_metaimage(const std::string& path, const VolumeReadOptions& options) {
     const std::string what = "'" + path + "'";
     Header h = read_header(path);
 
@@ -297,7 +307,13 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
         // MetaIO applies HeaderSize to each data file.
         pieces.push_back({nm, 0, 0, header_size});
 
-    Volume vol = read_samples(dims, *type, pieces, compression, endian, what);
+    MetaImageSource src;
+    src.pieces = std::move(pieces);
+    src.compression = compression;
+    src.endian = endian;
+    Volume& vol = src.header;
+    vol.dims = dims;
+    vol.type = *type;
     vol.spacing = options.spacing.value_or(spacing);
     vol.origin = options.origin.value_or(origin);
     check_geometry(vol.spacing, vol.origin, what);
@@ -305,7 +321,26 @@ Volume read_metaimage(const std::string& path, const VolumeReadOptions& options)
     if (auto* u = field(h, {"units"})) vol.units = unescape(*u);
     for (const auto& f : h.fields)
         if (!structural_fields().count(f.lower)) vol.metadata[f.key] = unescape(f.value);
+    return src;
+}
+
+}  // namespace
+
+Volume read_metaimage(const std::string& path, const VolumeReadOptions& options) {
+    MetaImageSource src = parse_metaimage(path, options);
+    const Volume& h = src.header;
+    Volume vol = read_samples(h.dims, h.type, src.pieces, src.compression, src.endian, "'" + path + "'");
+    vol.spacing = h.spacing;
+    vol.origin = h.origin;
+    vol.field_name = h.field_name;
+    vol.units = h.units;
+    vol.metadata = h.metadata;
     return vol;
+}
+
+std::unique_ptr<VolumePlanes> open_metaimage_planes(const std::string& path, const VolumeReadOptions& options) {
+    MetaImageSource src = parse_metaimage(path, options);
+    return planes_of_pieces(std::move(src.header), src.pieces, src.compression, src.endian, "'" + path + "'");
 }
 
 namespace {

@@ -275,7 +275,17 @@ std::vector<DataPiece> data_pieces(const Header& h, const std::string& path, con
 
 }  // namespace
 
-Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
+namespace {
+
+/// A NRRD's header as a volume header (no samples) and where its samples are.
+struct NrrdSource {
+    Volume header;
+    std::vector<DataPiece> pieces;
+    Compression compression = Compression::None;
+    Endian endian = Endian::Little;
+};
+
+NrrdSource parse_nrrd(const std::string& path, const VolumeReadOptions& options) {
     const std::string what = "'" + path + "'";
     Header h = read_header(path);
 
@@ -363,8 +373,13 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
             if (std::isfinite(v[c])) origin[c] = v[c];
     }
 
-    auto pieces = data_pieces(h, path, dims, static_cast<int>(dimension), options.allow_external_data);
-    Volume vol = read_samples(dims, *type, pieces, compression, endian, what);
+    NrrdSource src;
+    src.pieces = data_pieces(h, path, dims, static_cast<int>(dimension), options.allow_external_data);
+    src.compression = compression;
+    src.endian = endian;
+    Volume& vol = src.header;
+    vol.dims = dims;
+    vol.type = *type;
     vol.spacing = options.spacing.value_or(spacing);
     vol.origin = options.origin.value_or(origin);
     check_geometry(vol.spacing, vol.origin, what);
@@ -373,7 +388,26 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
     for (const auto& [k, v] : h.fields)
         if (!handled_fields().count(k)) vol.metadata["nrrd:" + k] = v;
     for (const auto& [k, v] : h.key_values) vol.metadata[k] = v;
+    return src;
+}
+
+}  // namespace
+
+Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
+    NrrdSource src = parse_nrrd(path, options);
+    const Volume& h = src.header;
+    Volume vol = read_samples(h.dims, h.type, src.pieces, src.compression, src.endian, "'" + path + "'");
+    vol.spacing = h.spacing;
+    vol.origin = h.origin;
+    vol.field_name = h.field_name;
+    vol.units = h.units;
+    vol.metadata = h.metadata;
     return vol;
+}
+
+std::unique_ptr<VolumePlanes> open_nrrd_planes(const std::string& path, const VolumeReadOptions& options) {
+    NrrdSource src = parse_nrrd(path, options);
+    return planes_of_pieces(std::move(src.header), src.pieces, src.compression, src.endian, "'" + path + "'");
 }
 
 namespace {

@@ -1,5 +1,7 @@
 #include "nrrd_metaimage_common.hpp"
 
+#include "tetlod/converters/raw_volume.hpp"
+
 #include <zlib.h>
 
 #include <algorithm>
@@ -217,6 +219,19 @@ void check_piece_sizes(const std::vector<DataPiece>& pieces, Compression compres
                                 " bytes the header declares");
         }
     }
+}
+
+std::unique_ptr<VolumePlanes> planes_of_pieces(Volume header, const std::vector<DataPiece>& pieces,
+                                               Compression compression, Endian file_endian, const std::string& what) {
+    if (compression != Compression::None || pieces.size() != 1 || pieces[0].line_skip != 0) return nullptr;
+    validate_dims(header.dims, what);
+    const uint64_t total = static_cast<uint64_t>(header.dims.count()) * value_size(header.type);
+    check_piece_sizes(pieces, compression, total, what);
+    const DataPiece& p = pieces[0];
+    // byte skip -1: the samples are the file's last bytes.
+    const uint64_t offset = p.byte_skip >= 0 ? p.file_offset + uint64_t(p.byte_skip)
+                                             : file_size_of(p.path, what) - total;
+    return open_raw_planes_at(p.path, offset, std::move(header), file_endian);
 }
 
 Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiece>& pieces,

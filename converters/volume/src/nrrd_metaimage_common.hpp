@@ -3,6 +3,7 @@
 // between a volume and one or more data files, raw or zlib/gzip-compressed, in
 // either byte order, through bounded buffers. Not a public header.
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -47,6 +48,11 @@ inline constexpr uint64_t kMaxDeflateRatio = 1032;
 Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiece>& pieces,
                     Compression compression, Endian file_endian, const std::string& what);
 
+/// The planes of `header` (dims, type, geometry, metadata) read by offset
+/// when its samples are one uncompressed piece without line skip; null for
+/// any other layout (read whole with read_samples). The sizes are checked first.
+std::unique_ptr<VolumePlanes> planes_of_pieces(Volume header, const std::vector<DataPiece>& pieces,
+                                               Compression compression, Endian file_endian, const std::string& what);
 /// Throws Truncated/SizeMismatch when the pieces cannot hold `total_bytes` of
 /// samples (raw: exact sizes; compressed: the deflate bound). Call before
 /// allocating the volume.

@@ -15,6 +15,7 @@
 
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/output_policy.hpp"
 #include "tetlod/core/regular_file.hpp"
 
 namespace tetlod {
@@ -128,11 +129,10 @@ void set_geometry(Volume& v, const std::string& path, const VolumeReadOptions& o
 /// Planes read by offset: a plane costs one pread, wherever it lies.
 class RawPlanes final : public VolumePlanes {
 public:
-    RawPlanes(const std::string& path, const VolumeReadOptions& options, const RawLayout& layout)
-        : path_(path), header_bytes_(options.header_bytes), swap_(needs_swap(options.endian)) {
-        header_.dims = layout.dims;
-        header_.type = layout.type;
-        set_geometry(header_, path, options);
+    RawPlanes(const std::string& path, uint64_t offset, Volume header, Endian endian)
+        : path_(path), header_bytes_(offset), swap_(needs_swap(endian)), header_(std::move(header)) {
+        header_.data = {};
+        note_input_file(path);  // read while outputs are written: never one of them
         fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
         if (fd_ < 0) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + std::strerror(errno));
     }
@@ -175,7 +175,27 @@ private:
 }  // namespace
 
 std::unique_ptr<VolumePlanes> open_raw_volume_planes(const std::string& path, const VolumeReadOptions& options) {
-    return std::make_unique<RawPlanes>(path, options, raw_layout(path, options));
+    const RawLayout layout = raw_layout(path, options);
+    Volume header;
+    header.dims = layout.dims;
+    header.type = layout.type;
+    set_geometry(header, path, options);
+    return std::make_unique<RawPlanes>(path, options.header_bytes, std::move(header), options.endian);
+}
+
+std::unique_ptr<VolumePlanes> open_raw_planes_at(const std::string& path, uint64_t offset, Volume header,
+                                                 Endian endian) {
+    require_regular_file(path, "volume data");
+    std::error_code ec;
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + ec.message());
+    validate_dims(header.dims, "'" + path + "'");
+    const uint64_t payload = uint64_t(header.dims.count()) * value_size(header.type);
+    if (offset > size || size - offset < payload)
+        throw Error(ErrorCode::Truncated, "'" + path + "': " + std::to_string(payload) + " bytes of samples from byte " +
+                                              std::to_string(offset) + " do not fit in its " + std::to_string(size) +
+                                              " bytes");
+    return std::make_unique<RawPlanes>(path, offset, std::move(header), endian);
 }
 
 Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options) {

@@ -23,6 +23,9 @@ VolumeFormat metaimage_volume_format() {
     f.extensions = {".mha", ".mhd"};
     f.description = "MetaImage, attached (.mha) or detached header + .raw (.mhd)";
     f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_metaimage(l.file, o); };
+    f.open_planes = [](const VolumeLocation& l, const VolumeReadOptions& o) {
+        return open_metaimage_planes(l.file, o);
+    };
     f.write = [](const Volume& v, const VolumeLocation& l) {
         MetaImageWriteOptions o;
         o.layout = layout(l);

@@ -23,6 +23,7 @@ VolumeFormat nrrd_volume_format() {
     f.extensions = {".nrrd", ".nhdr"};
     f.description = "NRRD, attached (.nrrd) or detached header + .raw (.nhdr)";
     f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_nrrd(l.file, o); };
+    f.open_planes = [](const VolumeLocation& l, const VolumeReadOptions& o) { return open_nrrd_planes(l.file, o); };
     f.write = [](const Volume& v, const VolumeLocation& l) {
         NrrdWriteOptions o;
         o.layout = layout(l);

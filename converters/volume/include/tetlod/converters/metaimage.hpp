@@ -24,6 +24,7 @@
 // Every size the header claims is checked against the data files before the
 // volume is allocated; the data are read through bounded buffers. Safe on
 // untrusted input: every problem is a tetlod::Error naming the file.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,10 @@ struct MetaImageWriteOptions {
 /// report metaimage_unstorable_keys(). Each file is written atomically; a
 /// detached header after its data.
 void write_metaimage(const Volume& volume, const std::string& path, const MetaImageWriteOptions& options = {});
+/// The same file read plane by plane, by offset, when its samples are one
+/// uncompressed block (one data file); null for any other layout (compressed,
+/// several files), which read_metaimage reads whole. The same header checks first.
+std::unique_ptr<VolumePlanes> open_metaimage_planes(const std::string& path, const VolumeReadOptions& options);
 /// The same from planes read one after the other (the header from planes.header()).
 void write_metaimage(VolumePlanes& planes, const std::string& path, const MetaImageWriteOptions& options = {});
 

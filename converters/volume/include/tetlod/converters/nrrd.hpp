@@ -23,6 +23,7 @@
 // Every size the header claims is checked against the data files before the
 // volume is allocated; the data are read through bounded buffers. Safe on
 // untrusted input: every problem is a tetlod::Error naming the file.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,11 @@ struct NrrdWriteOptions {
 /// never refused: callers report nrrd_unstorable_keys(). Each file is written
 /// atomically; a detached header is written after its data.
 void write_nrrd(const Volume& volume, const std::string& path, const NrrdWriteOptions& options = {});
+/// The same file read plane by plane, by offset, when its samples are one
+/// uncompressed block (raw encoding, one data file, no line skip); null for any
+/// other layout (gzip, several files), which read_nrrd reads whole. The same
+/// header checks first.
+std::unique_ptr<VolumePlanes> open_nrrd_planes(const std::string& path, const VolumeReadOptions& options);
 /// The same from planes read one after the other (the header from planes.header()).
 void write_nrrd(VolumePlanes& planes, const std::string& path, const NrrdWriteOptions& options = {});
 

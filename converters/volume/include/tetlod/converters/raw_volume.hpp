@@ -34,6 +34,12 @@ Volume read_raw_volume(const std::string& path, const VolumeReadOptions& options
 /// checks first, then each read() costs what it reads.
 std::unique_ptr<VolumePlanes> open_raw_volume_planes(const std::string& path, const VolumeReadOptions& options);
 
+/// Planes of `header`'s dims and type stored raw in `path` from byte `offset`
+/// (x fastest, in `endian` byte order), read by offset: the data block of a
+/// NRRD or MetaImage file. Checks the file holds them first.
+std::unique_ptr<VolumePlanes> open_raw_planes_at(const std::string& path, uint64_t offset, Volume header,
+                                                 Endian endian);
+
 /// Writes the samples of planes read one after the other, atomically.
 void write_raw_volume(VolumePlanes& planes, const std::string& path, Endian endian = Endian::Little);
 
