@@ -162,13 +162,41 @@ public:
                 }
                 if (x0 > x1) continue;
                 const T* row = f_ + (z - z0_) * XY_ + y * X_;
-                for (int64_t x = x0; x <= x1; ++x) {
-                    const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
-                    worst = e > worst ? e : worst;
+                if constexpr (kExactInt) {
+                    const int64_t e = row_max_exact(row, x0, x1, int64_t(b.D), int64_t(A), int64_t(Bc));
+                    worst = Acc(e) > worst ? Acc(e) : worst;
+                } else {
+                    for (int64_t x = x0; x <= x1; ++x) {
+                        const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
+                        worst = e > worst ? e : worst;
+                    }
                 }
             }
         }
         return worst;
+    }
+
+    /// Integer data whose terms stay below 2^53 (the double accumulator is then
+    /// exact): the same values in 64-bit integers, without conversions, and with
+    /// two independent maxima so the loop is not bound by the max's latency.
+    static constexpr bool kExactInt = std::is_integral_v<T> && std::is_same_v<Acc, double>;
+
+    /// max over x in x0..x1 of |row[x] * D - (A x + B)| (exact integers).
+    static int64_t row_max_exact(const T* row, int64_t x0, int64_t x1, int64_t D, int64_t A, int64_t B) {
+        int64_t n0 = A * x0 + B, n1 = n0 + A;
+        const int64_t A2 = 2 * A;
+        int64_t w0 = 0, w1 = 0;
+        int64_t x = x0;
+        for (; x + 1 <= x1; x += 2, n0 += A2, n1 += A2) {
+            const int64_t e0 = int64_t(row[x]) * D - n0, e1 = int64_t(row[x + 1]) * D - n1;
+            w0 = std::max(w0, e0 < 0 ? -e0 : e0);
+            w1 = std::max(w1, e1 < 0 ? -e1 : e1);
+        }
+        if (x <= x1) {
+            const int64_t e0 = int64_t(row[x]) * D - n0;
+            w0 = std::max(w0, e0 < 0 ? -e0 : e0);
+        }
+        return std::max(w0, w1);
     }
 
     /// Template: the non-vertex grid points of one diamond shape, each with the
@@ -181,6 +209,10 @@ public:
         };
         std::vector<Entry> entries;
         Acc D = 1;
+        /// kExactInt: the same entries with their nonzero weights only, grouped
+        /// by how many there are (2: on an edge, 3: in a face, 4: inside), as
+        /// flat rows {p, v_1, w_1, ..., v_n, w_n}.
+        std::array<std::vector<int64_t>, 5> exact;
     };
 
     Template make_template(const Pt& c, const DiamondInfo& d) const {
@@ -216,11 +248,25 @@ public:
                     }
         }
         for (auto& [off, e] : points) tpl.entries.push_back(e);
+        if constexpr (kExactInt) {
+            for (const auto& e : tpl.entries) {
+                int n = 0;
+                for (int i = 0; i < 4; ++i) n += e.w[i] != 0;
+                auto& rows = tpl.exact[std::size_t(n)];
+                rows.push_back(e.p);
+                for (int i = 0; i < 4; ++i)
+                    if (e.w[i] != 0) {
+                        rows.push_back(e.v[i]);
+                        rows.push_back(int64_t(e.w[i]));
+                    }
+            }
+        }
         return tpl;
     }
 
     double eval_template(const Template& tpl, int64_t ci) const {
         const T* base = f_ + ci;
+        if constexpr (kExactInt) return double(eval_exact(tpl, base)) / double(tpl.D);
         Acc worst = 0;
         for (const auto& e : tpl.entries) {
             const Acc n = e.w[0] * Acc(base[e.v[0]]) + e.w[1] * Acc(base[e.v[1]]) +
@@ -229,6 +275,35 @@ public:
             worst = err > worst ? err : worst;
         }
         return to_double_up(worst) / double(tpl.D);
+    }
+
+    /// max |f(p) D - sum w_i f(v_i)| over a point template's entries, in exact
+    /// integers (kExactInt): the nonzero weights only, two maxima in flight.
+    static int64_t eval_exact(const Template& tpl, const T* base) {
+        const int64_t D = int64_t(tpl.D);
+        int64_t w0 = 0, w1 = 0;
+        auto term = [base](const int64_t* r, int n) {
+            int64_t s = 0;
+            for (int i = 0; i < n; ++i) s += r[1 + 2 * i + 1] * int64_t(base[r[1 + 2 * i]]);
+            return s;
+        };
+        for (int n = 1; n <= 4; ++n) {
+            const std::vector<int64_t>& rows = tpl.exact[std::size_t(n)];
+            const std::size_t stride = std::size_t(1 + 2 * n);
+            const int64_t* r = rows.data();
+            const int64_t* end = r + rows.size();
+            for (; r + 2 * stride <= end; r += 2 * stride) {
+                const int64_t e0 = int64_t(base[r[0]]) * D - term(r, n);
+                const int64_t e1 = int64_t(base[r[stride]]) * D - term(r + stride, n);
+                w0 = std::max(w0, e0 < 0 ? -e0 : e0);
+                w1 = std::max(w1, e1 < 0 ? -e1 : e1);
+            }
+            if (r < end) {
+                const int64_t e0 = int64_t(base[r[0]]) * D - term(r, n);
+                w0 = std::max(w0, e0 < 0 ? -e0 : e0);
+            }
+        }
+        return std::max(w0, w1);
     }
 
     /// Span template: per tet of one diamond shape, the row spans of its grid
@@ -309,6 +384,11 @@ public:
                 const Acc Bc = Acc(sp->b[0]) * fv[0] + Acc(sp->b[1]) * fv[1] +
                                Acc(sp->b[2]) * fv[2] + Acc(sp->b[3]) * fv[3];
                 const T* row = base + sp->row;
+                if constexpr (kExactInt) {
+                    const Acc e = Acc(row_max_exact(row, sp->x0, sp->x1, int64_t(D), int64_t(A), int64_t(Bc)));
+                    worst = e > worst ? e : worst;
+                    continue;
+                }
                 for (int32_t x = sp->x0; x <= sp->x1; ++x) {
                     const Acc e = abs_value(Acc(row[x]) * D - (A * Acc(x) + Bc));
                     worst = e > worst ? e : worst;
