@@ -109,6 +109,8 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
           << x.chunks_decoded << " of " << x.chunks_total << " chunks";
         if (x.chunk_decodes > x.chunks_decoded) o << " (" << x.chunk_decodes << " decodings: raise --cache-mb)";
         o << ", cache " << format_bytes(x.cache_peak_bytes) << ", " << format_seconds(x.seconds) << "\n";
+        detail("time     refine " + format_seconds(x.refine_seconds) + ", emit + write " +
+               format_seconds(x.emit_seconds));
     }
     o << "wrote    " << a.output << "\n";
     return 0;

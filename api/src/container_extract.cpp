@@ -82,6 +82,8 @@ Expected<ContainerExtract> extract(const std::string& path, ModelKind model, Lod
     }
     x.seconds = clock.seconds();
     x.max_error = stats.max_error;
+    x.refine_seconds = stats.refine_seconds;
+    x.emit_seconds = stats.emit_seconds;
     x.bytes_read = lazy.bytes_read;
     x.chunks_decoded = lazy.chunks_decoded;
     x.chunks_total = lazy.chunks_total;

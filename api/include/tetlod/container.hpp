@@ -149,6 +149,8 @@ struct ContainerExtract {
     LodQuery query;            // as resolved
     uint64_t tet_count = 0, vertex_count = 0;  // of the mesh (also when streamed)
     double seconds = 0;        // open + read + extract
+    double refine_seconds = 0; // HT: the split set (reading what it examines)
+    double emit_seconds = 0;   // HT: the tets, handed over (written, when streamed)
     // HT (lazy): the largest error of the mesh, what was read.
     double max_error = 0;
     uint64_t bytes_read = 0, file_size = 0;

@@ -18,17 +18,26 @@ HtChunkCache::HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout
       first_of_cycle_(std::size_t(G_.k + 1), 0),
       slots_(layout.chunks.size()) {
     for (std::size_t i = L_.chunks.size(); i-- > 0;) first_of_cycle_[std::size_t(L_.chunks[i].cycle)] = i;
+    cycle_bricks_.resize(std::size_t(G_.k + 1));
+    for (int t = 0; t <= G_.k; ++t) {
+        CycleBricks& c = cycle_bricks_[std::size_t(t)];
+        c.shift = t + 1 + G_.g;  // side(t) = 2^shift
+        const auto n = G_.bricks(t);
+        for (int a = 0; a < 3; ++a) c.n[a] = n[a];
+        c.first = first_of_cycle_[std::size_t(t)];
+    }
 }
 
 std::size_t HtChunkCache::chunk_of(const ht::Pt& p, int* cycle) const {
-    int t = G_.k;
-    for (int a = 0; a < 3; ++a)
-        if (p[a] != 0) t = std::min(t, std::countr_zero(uint32_t(p[a])));
-    const auto n = G_.bricks(t);
+    // Every sample the refinement reads comes through here: shifts and a
+    // table, no divisions.
+    const uint32_t any = uint32_t(p[0]) | uint32_t(p[1]) | uint32_t(p[2]);
+    const int t = any == 0 ? G_.k : std::min(G_.k, std::countr_zero(any));
+    const CycleBricks& c = cycle_bricks_[std::size_t(t)];
     int64_t bi[3];
-    for (int a = 0; a < 3; ++a) bi[a] = std::min<int64_t>(p[a] / G_.side(t), n[a] - 1);
+    for (int a = 0; a < 3; ++a) bi[a] = std::min<int64_t>(int64_t(p[a]) >> c.shift, c.n[a] - 1);
     if (cycle) *cycle = t;
-    return first_of_cycle_[std::size_t(t)] + std::size_t((bi[2] * n[1] + bi[1]) * n[0] + bi[0]);
+    return c.first + std::size_t((bi[2] * c.n[1] + bi[1]) * c.n[0] + bi[0]);
 }
 
 std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {

@@ -84,6 +84,12 @@ private:
     const std::size_t budget_;
     const bool errors_;
     std::vector<std::size_t> first_of_cycle_;
+    struct CycleBricks {
+        int shift = 0;          // log2 of the brick side
+        int64_t n[3] = {1, 1, 1};  // bricks per axis
+        std::size_t first = 0;  // index of the cycle's first chunk
+    };
+    std::vector<CycleBricks> cycle_bricks_;  // per cycle, for chunk_of
     mutable std::mutex mu_;
     struct Slot {
         std::shared_ptr<const DecodedChunk> chunk;

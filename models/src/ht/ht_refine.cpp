@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "tetlod/models/detail/ht_geometry.hpp"
-#include "tetlod/models/detail/point_id_map.hpp"
+#include "tetlod/models/detail/blocked_point_map.hpp"
 #include "tetlod/models/ht/ht_sample_source.hpp"
 #include "tet_box.hpp"
 #include "../query/lod_query_region.hpp"
@@ -170,7 +170,7 @@ public:
     }
 
 private:
-    detail::PointIdMap map_;
+    detail::BlockedPointMap map_;
 };
 
 template <class Access, class Marks>
