@@ -56,22 +56,16 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
         // Its coarser points are gathered under the lock (decoding missing
         // coarser chunks there); the chunk's own decoding, the bulk of the
         // work, runs outside, so threads asking for different chunks decode
-        // in parallel. The chunks this fetched stay pinned until it has
-        // copied from them: with a tiny budget, re-fetching coarser chunks
-        // for every dependency would cost exponentially in the cycles.
+        // in parallel.
         slots_[id].pending = true;
-        ++depth_;
         try {
-            p = prepare(id, errors_);
+            Pins pins;
+            p = prepare(id, errors_, lock, pins);
         } catch (...) {
-            --depth_;
-            pinned_.clear();
             slots_[id].pending = false;
             decoded_.notify_all();
             throw;
         }
-        --depth_;
-        pinned_.clear();
     }
     try {
         finish(id, p);
@@ -82,23 +76,34 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get(std::size_t id) {
         throw;
     }
     std::lock_guard<std::mutex> lock(mu_);
-    Slot& slot = slots_[id];
-    slot.pending = false;
-    if (!slot.chunk) {  // else a nested fetch decoded it meanwhile: the same bytes
-        slot.chunk = p.chunk;
-        lru_.push_front(id);
-        slot.lru = lru_.begin();
-        bytes_ += slot.chunk->bytes();
-        stats_.distinct += slot.seen ? 0 : 1;
-        slot.seen = true;
-        stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
-        stats_.decodes += 1;
-        if (on_decode_) on_decode_(stats_);
-    }
-    decoded_.notify_all();
-    std::shared_ptr<const DecodedChunk> c = slot.chunk;
+    std::shared_ptr<const DecodedChunk> c = p.chunk;
+    store(id, c);
     evict_over_budget(id);
     return c;
+}
+
+HtChunkCache::~HtChunkCache() noexcept {
+    background_.cancel();
+    background_.wait();
+}
+
+void HtChunkCache::prefetch(std::size_t id) {
+    {
+        std::lock_guard<std::mutex> lock(mu_);
+        Slot& s = slots_[id];
+        if (s.chunk || s.pending || s.queued || bytes_ > budget_ / 2) return;
+        s.queued = true;
+    }
+    background_.run([this, id] {
+        try {
+            get(id);
+        } catch (...) {
+            // Dropped: the reader decodes the chunk itself when it needs it, and
+            // gets the error there, with its context.
+        }
+        std::lock_guard<std::mutex> lock(mu_);
+        slots_[id].queued = false;
+    });
 }
 
 ChunkCacheStats HtChunkCache::stats() const {
@@ -106,25 +111,40 @@ ChunkCacheStats HtChunkCache::stats() const {
     return stats_;
 }
 
-std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
-    Slot& s = slots_[id];
-    if (s.chunk) {
-        lru_.splice(lru_.begin(), lru_, s.lru);
-        if (depth_ > 0) pinned_.push_back(s.chunk);
-        return s.chunk;
+std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id, std::unique_lock<std::mutex>& lock,
+                                                             Pins& pins) {
+    for (;;) {
+        Slot& s = slots_[id];
+        if (s.chunk) {
+            lru_.splice(lru_.begin(), lru_, s.lru);
+            pins.push_back(s.chunk);
+            return s.chunk;
+        }
+        if (!s.pending) break;
+        // Another thread decodes it (outside the lock): wait rather than decode
+        // it twice. What this fetch holds is pinned in `pins`, so the wait
+        // cannot lose it; waits only go to coarser chunks, so they cannot cycle.
+        decoded_.wait(lock);
     }
-    ++depth_;
-    std::shared_ptr<const DecodedChunk> c;
+    slots_[id].pending = true;
+    Prepared p;
     try {
-        c = decode(id);  // fetches coarser chunks (pinned until the outermost get returns)
+        p = prepare(id, errors_, lock, pins);
+        finish(id, p);  // under the lock: the caller needs it now
     } catch (...) {
-        --depth_;
-        if (depth_ == 0) pinned_.clear();
+        slots_[id].pending = false;
+        decoded_.notify_all();
         throw;
     }
-    --depth_;
-    if (depth_ > 0) pinned_.push_back(c);
+    std::shared_ptr<const DecodedChunk> c = p.chunk;
+    store(id, c);
+    pins.push_back(c);
+    return c;
+}
+
+void HtChunkCache::store(std::size_t id, const std::shared_ptr<const DecodedChunk>& c) {
     Slot& slot = slots_[id];
+    slot.pending = false;
     slot.chunk = c;
     lru_.push_front(id);
     slot.lru = lru_.begin();
@@ -134,7 +154,7 @@ std::shared_ptr<const DecodedChunk> HtChunkCache::get_locked(std::size_t id) {
     slot.seen = true;
     stats_.peak_bytes = std::max(stats_.peak_bytes, bytes_);
     if (on_decode_) on_decode_(stats_);
-    return c;
+    decoded_.notify_all();
 }
 
 void HtChunkCache::evict_over_budget(std::size_t keep) {
@@ -153,28 +173,15 @@ void HtChunkCache::evict_over_budget(std::size_t keep) {
 std::shared_ptr<const DecodedChunk> HtChunkCache::decode_uncached(std::size_t id, bool errors) {
     Prepared p;
     {
-        std::lock_guard<std::mutex> lock(mu_);
-        ++depth_;  // the coarser chunks it fetches stay pinned while it copies from them
-        try {
-            p = prepare(id, errors);
-        } catch (...) {
-            --depth_;
-            pinned_.clear();
-            throw;
-        }
-        --depth_;
-        pinned_.clear();
+        std::unique_lock<std::mutex> lock(mu_);
+        Pins pins;  // the coarser chunks it fetches stay pinned while it copies from them
+        p = prepare(id, errors, lock, pins);
+        pins.clear();
         evict_over_budget(SIZE_MAX);
         stats_.decodes += 1;
         stats_.distinct += slots_[id].seen ? 0 : 1;
         slots_[id].seen = true;
     }
-    finish(id, p);
-    return p.chunk;
-}
-
-std::shared_ptr<const DecodedChunk> HtChunkCache::decode(std::size_t id) {
-    Prepared p = prepare(id, errors_);
     finish(id, p);
     return p.chunk;
 }
@@ -188,7 +195,8 @@ void HtChunkCache::finish(std::size_t id, Prepared& p) {
     if (f.code != ErrorCode::Ok) raise(f);
 }
 
-HtChunkCache::Prepared HtChunkCache::prepare(std::size_t id, bool errors) {
+HtChunkCache::Prepared HtChunkCache::prepare(std::size_t id, bool errors, std::unique_lock<std::mutex>& lock,
+                                             Pins& pins) {
     const HtChunk& c = L_.chunks[id];
     const int t = c.cycle;
     auto out = std::make_shared<DecodedChunk>();
@@ -231,7 +239,7 @@ HtChunkCache::Prepared HtChunkCache::prepare(std::size_t id, bool errors) {
                         empty = empty || isect[a] > isect[3 + a];
                     }
                     if (empty || G_.count_points(tc, isect) == 0) continue;
-                    auto dep = get_locked(did);
+                    auto dep = get_locked(did, lock, pins);
                     const Geometry& D = dep->window;
                     const std::byte* src = dep->field.data();
                     std::byte* dst = out->field.data();
@@ -284,6 +292,15 @@ double CachedSampleSource::value(const Point& p) {
         std::memcpy(&v, c.field.data() + i * sizeof(T), sizeof(T));
         return double(v);
     });
+}
+
+void CachedSampleSource::prefetch(const Point* points, int count) {
+    for (int i = 0; i < count; ++i) {
+        const std::size_t id = cache_.chunk_of(points[i]);
+        if (id == last_prefetch_) continue;
+        last_prefetch_ = id;
+        cache_.prefetch(id);
+    }
 }
 
 std::unique_ptr<HtSampleSource> CachedSampleSource::fork() { return std::make_unique<CachedSampleSource>(cache_); }

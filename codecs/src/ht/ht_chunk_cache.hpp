@@ -12,6 +12,8 @@
 // few per cycle) are never evicted, so the budget may be exceeded by what is
 // in use; below the working set of a query, chunks are decoded again (same
 // results, more time).
+#include <tbb/task_group.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <condition_variable>
@@ -48,6 +50,10 @@ public:
     /// error sections too (false: the field only, for reading the volume).
     HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes,
                  bool errors = true);
+    /// Waits for the background decodings (those not started are cancelled).
+    ~HtChunkCache() noexcept;
+    HtChunkCache(const HtChunkCache&) = delete;
+    HtChunkCache& operator=(const HtChunkCache&) = delete;
 
     /// Index (file order) of the chunk holding grid point p of B, and its cycle.
     std::size_t chunk_of(const ht::Pt& p, int* cycle = nullptr) const;
@@ -61,21 +67,34 @@ public:
     /// parallel, and is not kept. `errors`: decode its error section too.
     std::shared_ptr<const DecodedChunk> decode_uncached(std::size_t id, bool errors);
 
+    /// Starts decoding chunk `id` in the background (a TBB task) unless it is
+    /// cached, being decoded or queued, or the cache is over half its budget
+    /// (what is prefetched should not evict what is in use). A failure there
+    /// is dropped: the reader meets it again when it asks for the chunk.
+    void prefetch(std::size_t id);
+
     ChunkCacheStats stats() const;
     /// Called after each decoding (under the cache's lock: one call at a time).
     void on_decode(std::function<void(const ChunkCacheStats&)> f) { on_decode_ = std::move(f); }
     const HtLayout& layout() const { return L_; }
 
 private:
-    std::shared_ptr<const DecodedChunk> get_locked(std::size_t id);
+    /// The chunks one fetch has copied from, held until it is done: with a
+    /// tiny budget, re-fetching coarser chunks for every dependency would cost
+    /// exponentially in the cycles.
+    using Pins = std::vector<std::shared_ptr<const DecodedChunk>>;
+    /// A coarser chunk for a fetch in progress (under `lock`, which a wait for
+    /// a chunk another thread is decoding releases).
+    std::shared_ptr<const DecodedChunk> get_locked(std::size_t id, std::unique_lock<std::mutex>& lock, Pins& pins);
     /// A chunk's window with its coarser points filled, and its sections.
     struct Prepared {
         std::shared_ptr<DecodedChunk> chunk;
         std::vector<std::byte> field_stored, error_stored;
     };
-    Prepared prepare(std::size_t id, bool errors);  // under the lock
+    Prepared prepare(std::size_t id, bool errors, std::unique_lock<std::mutex>& lock, Pins& pins);  // under the lock
     void finish(std::size_t id, Prepared& p);      // the decoding proper, lock-free
-    std::shared_ptr<const DecodedChunk> decode(std::size_t id);
+    /// Puts a decoded chunk in the cache and wakes the threads waiting for it (under the lock).
+    void store(std::size_t id, const std::shared_ptr<const DecodedChunk>& c);
     void evict_over_budget(std::size_t keep);
 
     tlod::ContainerReader& r_;
@@ -96,15 +115,15 @@ private:
         std::list<std::size_t>::iterator lru;
         bool seen = false;
         bool pending = false;  // being decoded by a thread outside the lock
+        bool queued = false;   // a background decoding is queued (prefetch)
     };
     std::condition_variable decoded_;  // a pending chunk is done
     std::vector<Slot> slots_;
     std::list<std::size_t> lru_;  // most recent first
     std::size_t bytes_ = 0;
-    int depth_ = 0;  // nesting of decodings in progress
-    std::vector<std::shared_ptr<const DecodedChunk>> pinned_;  // fetched by the decoding in progress
     ChunkCacheStats stats_;
     std::function<void(const ChunkCacheStats&)> on_decode_;
+    tbb::task_group background_;  // prefetches; waited for by the destructor
 };
 
 /// HtSampleSource over a chunk cache: remembers the last chunk per cycle, so
@@ -115,10 +134,13 @@ public:
     float error(const Point& p) override;
     double value(const Point& p) override;
     std::unique_ptr<HtSampleSource> fork() override;
+    /// Queues the chunks holding `points` for background decoding.
+    void prefetch(const Point* points, int count) override;
 
 private:
     const DecodedChunk& at(const Point& p);
     HtChunkCache& cache_;
+    std::size_t last_prefetch_ = SIZE_MAX;  // consecutive hints mostly name one chunk
     struct Memo {
         std::size_t id = SIZE_MAX;
         std::shared_ptr<const DecodedChunk> chunk;

@@ -77,6 +77,8 @@ public:
     void prefetch_error(const Pt& p) const { __builtin_prefetch(&err_[index(p)]); }
     double value(const Pt& p) const { return field_->value(index(p)); }
     const ArrayAccess& fork() const { return *this; }
+    static constexpr bool wants_hints() { return false; }
+    void prefetch(const Pt*, int) const {}
     void fill_values(const std::vector<Pt>& points, std::vector<double>& values) const {
         values.resize(points.size());
         dispatch_value_type(field_->type, [&](auto tag) {  // one type dispatch for all vertices
@@ -102,6 +104,8 @@ public:
     void prefetch_error(const Pt&) const {}
     double value(const Pt& p) const { return s_->value(p); }
     SourceAccess fork() const { return SourceAccess(s_->fork()); }
+    static constexpr bool wants_hints() { return true; }
+    void prefetch(const Pt* points, int n) const { s_->prefetch(points, n); }
     void fill_values(const std::vector<Pt>& points, std::vector<double>& values) const {
         values.resize(points.size());
         for (std::size_t v = 0; v < points.size(); ++v) values[v] = s_->value(points[v]);
@@ -261,7 +265,7 @@ private:
         ht::maubach_roots(dom_.L, roots);
         for (int r = 0; r < 6; ++r) {
             PendingTet p{spine_first(roots[r].v, roots[r].tag), 0};
-            if (!ok(p)) pending_.push_back(ht::midpoint(p.v[0], p.v[1]));
+            if (!ok(p)) push_pending(ht::midpoint(p.v[0], p.v[1]));
         }
         while (!pending_.empty()) {
             const Pt c = pending_.back();
@@ -331,6 +335,25 @@ private:
         return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return acc_.value(t.v[i]); }, err);
     }
 
+    /// Queues a diamond for splitting. Splitting it reads its children's
+    /// errors: a source that decodes in pieces is told now, so it can decode
+    /// them in the background while the refinement works through the stack.
+    /// Every diamond queued is split (if not already, by whoever split it,
+    /// who read the same children), so nothing fetched this way goes unused.
+    void push_pending(const Pt& c) {
+        pending_.push_back(c);
+        if constexpr (Access::wants_hints()) {
+            const DiamondInfo d = ht::classify_centre(c, dom_.k);
+            if (d.level + 1 >= dom_.max_level()) return;
+            Pt ch[8];
+            const int n = ht::diamond_children(c, d, dom_.L, ch);
+            int kept = 0;
+            for (int i = 0; i < n; ++i)
+                if (in_box(ch[i])) ch[kept++] = ch[i];
+            acc_.prefetch(ch, kept);
+        }
+    }
+
     void force(const Pt& start) {
         if (is_split(start)) return;
         stack_.clear();
@@ -385,7 +408,7 @@ private:
             todo[pushed++] = ch[i];
         }
         for (int i = 0; i < pushed; ++i)
-            if (!is_split(todo[i])) pending_.push_back(todo[i]);
+            if (!is_split(todo[i])) push_pending(todo[i]);
         return true;
     }
 
@@ -420,7 +443,7 @@ private:
             }
         }
         for (int j = 0; j < pushed; ++j)
-            if (!is_split(todo[j])) pending_.push_back(todo[j]);
+            if (!is_split(todo[j])) push_pending(todo[j]);
     }
 
     /// Puts the longest edge first (it is unique in the HT).

@@ -29,6 +29,14 @@ public:
     /// A source for another thread, reading the same data. The parallel emit
     /// phase uses one per task; the refinement phase uses this one only.
     virtual std::unique_ptr<HtSampleSource> fork() = 0;
+    /// A hint from the refinement: the errors at these points (the children
+    /// of a diamond it has queued for splitting) will be read. A source that
+    /// decodes its data in pieces may start on them in the background; what
+    /// it returns must not depend on whether it did. Default: nothing.
+    virtual void prefetch(const Point* points, int count) {
+        (void)points;
+        (void)count;
+    }
 };
 
 /// The mesh HtModel::extract would give for a model with this domain and
