@@ -339,7 +339,9 @@ private:
     /// errors: a source that decodes in pieces is told now, so it can decode
     /// them in the background while the refinement works through the stack.
     /// Every diamond queued is split (if not already, by whoever split it,
-    /// who read the same children), so nothing fetched this way goes unused.
+    /// who read the same children), so what is fetched this way is read (but
+    /// for children whose tets cross the data box's far faces, which need no
+    /// error): decoding ahead changes the time, not the chunks a query reads.
     void push_pending(const Pt& c) {
         pending_.push_back(c);
         if constexpr (Access::wants_hints()) {
