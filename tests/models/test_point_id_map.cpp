@@ -1,8 +1,9 @@
-// The refinement's point table against std::map: random points and values,
+// The refinement's point tables (PointIdMap, BlockedPointMap) against std::map: random points and values,
 // replacements, misses, growth, the packed layout at every coordinate size,
 // and the switch to the wide layout when a value outgrows the packed field.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <random>
 
@@ -13,21 +14,23 @@ using tetlod::detail::PointIdMap;
 
 namespace {
 
-void check(int64_t max_coordinate, uint32_t max_value, int n, unsigned seed) {
-    PointIdMap m(max_coordinate);
-    std::map<PointIdMap::Point, uint32_t> want;
-    std::mt19937_64 rng(seed);
-    auto coord = [&] { return int32_t(rng() % uint64_t(max_coordinate + 1)); };
+using Point = PointIdMap::Point;
+
+/// Random points (from `point`) and values into `m` and a std::map, the
+/// corners of the coordinate range too; then every stored point and as many
+/// random probes must agree.
+template <class Map, class MakePoint>
+void check_map(Map& m, int64_t max_coordinate, uint32_t max_value, int n, std::mt19937_64& rng, MakePoint point) {
+    std::map<Point, uint32_t> want;
     for (int i = 0; i < n; ++i) {
-        const PointIdMap::Point p{coord(), coord(), coord()};
+        const Point p = point();
         const uint32_t v = uint32_t(rng() % (uint64_t(max_value) + 1));
         m.put(p, v);
         want[p] = v;
     }
-    // The corners of the coordinate range too.
     for (int c = 0; c < 8; ++c) {
-        const PointIdMap::Point p{(c & 1) ? int32_t(max_coordinate) : 0, (c & 2) ? int32_t(max_coordinate) : 0,
-                                  (c & 4) ? int32_t(max_coordinate) : 0};
+        const Point p{(c & 1) ? int32_t(max_coordinate) : 0, (c & 2) ? int32_t(max_coordinate) : 0,
+                      (c & 4) ? int32_t(max_coordinate) : 0};
         m.put(p, max_value);
         want[p] = max_value;
     }
@@ -38,10 +41,17 @@ void check(int64_t max_coordinate, uint32_t max_value, int n, unsigned seed) {
         ASSERT_EQ(got, v);
     }
     for (int i = 0; i < n; ++i) {
-        const PointIdMap::Point p{coord(), coord(), coord()};
+        const Point p = point();
         uint32_t got = 0;
-        ASSERT_EQ(m.find(p, got), want.count(p) == 1);
+        ASSERT_EQ(m.find(p, got), want.count(p) == 1) << p[0] << "," << p[1] << "," << p[2];
     }
+}
+
+void check(int64_t max_coordinate, uint32_t max_value, int n, unsigned seed) {
+    PointIdMap m(max_coordinate);
+    std::mt19937_64 rng(seed);
+    auto coord = [&] { return int32_t(rng() % uint64_t(max_coordinate + 1)); };
+    check_map(m, max_coordinate, max_value, n, rng, [&] { return Point{coord(), coord(), coord()}; });
 }
 
 TEST(PointIdMap, AgreesWithStdMapAtEveryCoordinateSize) {
@@ -73,44 +83,20 @@ namespace {
 
 void check_blocked(int64_t max_coordinate, uint32_t max_value, int n, unsigned seed, bool clustered) {
     tetlod::detail::BlockedPointMap m(max_coordinate);
-    std::map<PointIdMap::Point, uint32_t> want;
     std::mt19937_64 rng(seed);
     auto coord = [&] { return int32_t(rng() % uint64_t(max_coordinate + 1)); };
-    auto point = [&] {
-        if (!clustered) return PointIdMap::Point{coord(), coord(), coord()};
+    check_map(m, max_coordinate, max_value, n, rng, [&] {
+        if (!clustered) return Point{coord(), coord(), coord()};
         // A point of a random cycle near a random centre: dense blocks and
         // points of every cycle sharing coordinates' high bits.
         const int t = int(rng() % 6);
-        PointIdMap::Point p;
+        Point p;
         for (auto& c : p) {
             const int64_t v = (int64_t(coord()) & ~((int64_t{1} << t) - 1)) & ~int64_t{0xFF};
             c = int32_t(std::min<int64_t>(max_coordinate, v + int64_t(rng() % 8) * (int64_t{1} << t)));
         }
         return p;
-    };
-    for (int i = 0; i < n; ++i) {
-        const PointIdMap::Point p = point();
-        const uint32_t v = uint32_t(rng() % (uint64_t(max_value) + 1));
-        m.put(p, v);
-        want[p] = v;
-    }
-    for (int c = 0; c < 8; ++c) {
-        const PointIdMap::Point p{(c & 1) ? int32_t(max_coordinate) : 0, (c & 2) ? int32_t(max_coordinate) : 0,
-                                  (c & 4) ? int32_t(max_coordinate) : 0};
-        m.put(p, max_value);
-        want[p] = max_value;
-    }
-    ASSERT_EQ(m.size(), want.size());
-    for (const auto& [p, v] : want) {
-        uint32_t got = 0;
-        ASSERT_TRUE(m.find(p, got)) << p[0] << "," << p[1] << "," << p[2];
-        ASSERT_EQ(got, v);
-    }
-    for (int i = 0; i < n; ++i) {
-        const PointIdMap::Point p = point();
-        uint32_t got = 0;
-        ASSERT_EQ(m.find(p, got), want.count(p) == 1) << p[0] << "," << p[1] << "," << p[2];
-    }
+    });
 }
 
 }  // namespace
