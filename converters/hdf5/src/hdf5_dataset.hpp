@@ -34,7 +34,7 @@ struct Hdf5Source {
 /// Opens `dataset` of `file` (empty: the file's only dataset) and reads its
 /// header; throws tetlod::Error naming the file and dataset. `file_size` is the
 /// file's size (the claims are checked against it). `for_planes`: the chunk
-/// cache is set to hold one layer of chunks across a plane (at most
+/// cache is set to hold two layers of chunks across a plane (at most
 /// kMaxPlaneCacheBytes), so reading plane after plane decodes each chunk once.
 /// Safe on untrusted files only in a child process (the library may crash).
 Hdf5Source open_hdf5_source(const std::string& file, const std::string& dataset, const VolumeReadOptions& options,

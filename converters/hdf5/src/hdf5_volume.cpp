@@ -299,9 +299,8 @@ void write_hdf5(VolumePlanes& planes, const std::string& file, const std::string
             planes.read(z0, n, buf.data());
             const hsize_t start[3] = {hsize_t(z0), 0, 0};
             const hsize_t count[3] = {hsize_t(n), hsize_t(h.dims.y), hsize_t(h.dims.x)};
-            const hsize_t points = count[0] * count[1] * count[2];
             Hid fs(H5Dget_space(d), H5Sclose);
-            Hid ms(H5Screate_simple(1, &points, nullptr), H5Sclose);
+            Hid ms(H5Screate_simple(3, count, nullptr), H5Sclose);  // the selection's shape (fast chunk mapping)
             if (!fs.valid() || !ms.valid() ||
                 H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
                 H5Dwrite(d, mt, ms.get(), fs.get(), H5P_DEFAULT, buf.data()) < 0)

@@ -39,7 +39,7 @@ Volume read_hdf5(const std::string& file, const std::string& dataset, const Volu
 
 /// The same dataset read plane by plane, each read one hyperslab (out-of-core
 /// conversion): the header and samples of read_hdf5, in memory bounded by the
-/// planes asked for plus a chunk cache holding one layer of chunks across a
+/// planes asked for plus a chunk cache holding two layers of chunks across a
 /// plane (at most 1 GiB). Same checks as read_hdf5; with isolation on, libhdf5
 /// runs in a persistent child process that keeps the file open and answers each
 /// read (open_planes_isolated in core/isolated_planes.hpp), each read with its
