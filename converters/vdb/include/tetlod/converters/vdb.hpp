@@ -28,15 +28,26 @@
 // (dims_xyz or the active bounding box) may need at most 4096 bytes per file
 // byte + 64 MiB (ErrorCode::TooLarge); dims_xyz that is not three positive
 // integers is ErrorCode::CorruptData.
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
 Volume read_vdb(const std::string& path, const VolumeReadOptions& options = {});
+
+/// The same grid plane by plane (out-of-core conversion): the header and
+/// samples of read_vdb, without a dense copy of the volume on either side. With
+/// isolation on, OpenVDB loads the grid in a persistent child process (same
+/// checks and limits as read_vdb) that fills each plane request from the sparse
+/// grid; with isolation off, in this process. The grid itself stays in memory
+/// (OpenVDB reads a grid whole), so this bounds the dense samples, not the grid.
+/// Reads are not thread-safe (one at a time).
+std::unique_ptr<VolumePlanes> open_vdb_planes(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Names and types ("float", "int32", ...) of every grid in the file.
 std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path);
