@@ -552,63 +552,78 @@ std::unique_ptr<VolumePlanes> open_vdb_planes(const std::string& path, const Vol
 
 namespace {
 
+// The writer reads its samples plane by plane (a volume in memory through
+// planes_of), so a streaming decode holds the grid being built and one plane,
+// never a dense copy of the volume besides the grid.
+
 template <class GridT, class Src>
-typename GridT::Ptr make_grid(const Volume& vol) {
+typename GridT::Ptr make_grid(VolumePlanes& planes) {
     using V = typename GridT::ValueType;
+    const Dims d = planes.header().dims;
     typename GridT::Ptr grid = GridT::create(V(0));
     auto acc = grid->getAccessor();
-    const Src* src = vol.as<Src>();
+    std::vector<Src> plane(static_cast<std::size_t>(d.x * d.y));
     const V bg = V(0);
-    for (int64_t z = 0; z < vol.dims.z; ++z)
-        for (int64_t y = 0; y < vol.dims.y; ++y)
-            for (int64_t x = 0; x < vol.dims.x; ++x) {
-                const V v = static_cast<V>(src[vol.dims.index(x, y, z)]);
+    for (int64_t z = 0; z < d.z; ++z) {
+        planes.read(z, 1, reinterpret_cast<std::byte*>(plane.data()));
+        for (int64_t y = 0; y < d.y; ++y)
+            for (int64_t x = 0; x < d.x; ++x) {
+                const V v = static_cast<V>(plane[static_cast<std::size_t>(y * d.x + x)]);
                 // Bitwise, so -0.0 and NaN stay active and come back exactly.
                 if (std::memcmp(&v, &bg, sizeof(V)) == 0) continue;
                 acc.setValue(openvdb::Coord(static_cast<int32_t>(x), static_cast<int32_t>(y), static_cast<int32_t>(z)), v);
             }
+    }
     return grid;
 }
 
 template <class GridT>
-openvdb::GridBase::Ptr make_grid_of(const Volume& vol) {
-    switch (vol.type) {
-        case ValueType::F32: return make_grid<GridT, float>(vol);
-        case ValueType::F64: return make_grid<GridT, double>(vol);
-        case ValueType::U8: return make_grid<GridT, uint8_t>(vol);
-        case ValueType::I8: return make_grid<GridT, int8_t>(vol);
-        case ValueType::U16: return make_grid<GridT, uint16_t>(vol);
-        case ValueType::I16: return make_grid<GridT, int16_t>(vol);
-        case ValueType::I32: return make_grid<GridT, int32_t>(vol);
-        case ValueType::U32: return make_grid<GridT, uint32_t>(vol);
+openvdb::GridBase::Ptr make_grid_of(VolumePlanes& planes) {
+    switch (planes.header().type) {
+        case ValueType::F32: return make_grid<GridT, float>(planes);
+        case ValueType::F64: return make_grid<GridT, double>(planes);
+        case ValueType::U8: return make_grid<GridT, uint8_t>(planes);
+        case ValueType::I8: return make_grid<GridT, int8_t>(planes);
+        case ValueType::U16: return make_grid<GridT, uint16_t>(planes);
+        case ValueType::I16: return make_grid<GridT, int16_t>(planes);
+        case ValueType::I32: return make_grid<GridT, int32_t>(planes);
+        case ValueType::U32: return make_grid<GridT, uint32_t>(planes);
     }
     return nullptr;
 }
 
-bool all_values_within(const Volume& vol, double lo, double hi) {
-    for (int64_t i = 0; i < vol.count(); ++i) {
-        const double v = vol.value(i);
-        if (!(v >= lo && v <= hi)) return false;
-    }
-    return true;
+// A pass over the planes (read once more when the grid is built).
+bool all_values_within(VolumePlanes& planes, double lo, double hi) {
+    const Volume& h = planes.header();
+    return dispatch_value_type(h.type, [&](auto t) {
+        using T = decltype(t);
+        std::vector<T> plane(static_cast<std::size_t>(h.dims.x * h.dims.y));
+        for (int64_t z = 0; z < h.dims.z; ++z) {
+            planes.read(z, 1, reinterpret_cast<std::byte*>(plane.data()));
+            for (const T v : plane)
+                if (!(static_cast<double>(v) >= lo && static_cast<double>(v) <= hi)) return false;
+        }
+        return true;
+    });
 }
 
 // The grid type to write: the one the volume was read from (metadata
 // vdb:grid_type) when it holds every value exactly, else f32 -> float, f64 ->
 // double, u32 -> int64, other integers -> int32.
-std::string grid_type_for(const Volume& vol) {
+std::string grid_type_for(VolumePlanes& planes) {
+    const Volume& vol = planes.header();
     const ValueType t = vol.type;
     const bool small_int = t == ValueType::U8 || t == ValueType::I8 || t == ValueType::U16 || t == ValueType::I16;
     auto it = vol.metadata.find(kGridTypeKey);
     const std::string hint = it == vol.metadata.end() ? "" : it->second;
     if (hint == "float" &&
-        (t == ValueType::F32 || small_int || (!is_float(t) && all_values_within(vol, -16777216.0, 16777216.0))))
+        (t == ValueType::F32 || small_int || (!is_float(t) && all_values_within(planes, -16777216.0, 16777216.0))))
         return hint;
     if (hint == "double" && (t == ValueType::F64 || t == ValueType::F32 || !is_float(t))) return hint;
-    if (hint == "int32" && !is_float(t) && (t != ValueType::U32 || all_values_within(vol, 0, INT32_MAX)))
+    if (hint == "int32" && !is_float(t) && (t != ValueType::U32 || all_values_within(planes, 0, INT32_MAX)))
         return hint;
     if (hint == "int64" && !is_float(t)) return hint;
-    if (hint == "bool" && !is_float(t) && all_values_within(vol, 0, 1)) return hint;
+    if (hint == "bool" && !is_float(t) && all_values_within(planes, 0, 1)) return hint;
     if (t == ValueType::F32) return "float";
     if (t == ValueType::F64) return "double";
     return t == ValueType::U32 ? "int64" : "int32";
@@ -626,10 +641,16 @@ std::vector<std::string> vdb_unstorable_keys(const Volume& vol) {
 }
 
 void write_vdb(const Volume& vol, const std::string& path) {
+    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
+        throw Error(ErrorCode::InvalidArgument, "'" + path + "': volume data size does not match its dims");
+    auto planes = planes_of(vol);
+    write_vdb(*planes, path);
+}
+
+void write_vdb(VolumePlanes& planes, const std::string& path) {
+    const Volume& vol = planes.header();
     const std::string what = "'" + path + "'";
     validate_dims(vol.dims, what);
-    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
-        throw Error(ErrorCode::InvalidArgument, what + ": volume data size does not match its dims");
     if (vol.dims.x > INT32_MAX || vol.dims.y > INT32_MAX || vol.dims.z > INT32_MAX)
         throw Error(ErrorCode::TooLarge, what + ": dims exceed OpenVDB coordinates");
     for (int a = 0; a < 3; ++a)
@@ -637,13 +658,13 @@ void write_vdb(const Volume& vol, const std::string& path) {
             throw Error(ErrorCode::InvalidArgument, what + ": spacing must be positive for an OpenVDB transform");
     openvdb::initialize();
 
-    const std::string grid_type = grid_type_for(vol);
+    const std::string grid_type = grid_type_for(planes);
     openvdb::GridBase::Ptr grid;
-    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(vol);
-    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(vol);
-    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(vol);
-    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(vol);
-    else grid = make_grid_of<openvdb::Int32Grid>(vol);
+    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(planes);
+    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(planes);
+    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(planes);
+    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(planes);
+    else grid = make_grid_of<openvdb::Int32Grid>(planes);
     grid->setName(vol.field_name.empty() ? "density" : vol.field_name);
     const Vec3& s = vol.spacing;
     const Vec3& o = vol.origin;

@@ -136,3 +136,41 @@ TEST(VdbPlanes, BadFilesAreCleanErrors) {
     o.grid = "nope";
     expect_error([&] { open_vdb_planes(dir + "/v.vdb", o); }, ErrorCode::NotFound, {"v.vdb", "nope"});
 }
+
+TEST(VdbPlanes, WriterFedPlanesWritesTheWholeWritersGrid) {
+    const std::string dir = tmp_dir("vdb_planes_write");
+    for (ValueType t : kAllTypes) {
+        SCOPED_TRACE(value_type_name(t));
+        Volume v = make_volume(t, {9, 8, 7});
+        v.metadata["who"] = "test";
+        write_vdb(v, dir + "/whole.vdb");
+        auto planes = planes_of(v);
+        write_vdb(*planes, dir + "/planes.vdb");
+        const Volume a = read_vdb(dir + "/whole.vdb"), b = read_vdb(dir + "/planes.vdb");
+        EXPECT_EQ(a.type, b.type);
+        EXPECT_TRUE(a.data == b.data);
+        EXPECT_EQ(a.metadata, b.metadata);  // the grid type included
+        EXPECT_EQ(a.spacing, b.spacing);
+    }
+    // The grid type a volume was read from, kept when every value fits (a pass
+    // over the planes decides): u32 values within int32 from an int32 grid.
+    Volume u = make_volume(ValueType::U32, {6, 5, 4});
+    for (int64_t i = 0; i < u.count(); ++i) u.as<uint32_t>()[i] = uint32_t(i * 1000);
+    u.metadata["vdb:grid_type"] = "int32";
+    auto planes = planes_of(u);
+    write_vdb(*planes, dir + "/u.vdb");
+    EXPECT_EQ(read_vdb(dir + "/u.vdb").metadata.at("vdb:grid_type"), "int32");
+    // Planes that fail mid-way leave nothing.
+    struct Failing final : VolumePlanes {
+        Volume h;
+        const Volume& header() const override { return h; }
+        void read(int64_t z0, int64_t, std::byte*) override {
+            if (z0 > 1) throw Error(ErrorCode::CorruptData, "'src.tlod': bad chunk");
+        }
+    } failing;
+    failing.h = make_volume(ValueType::F32, {5, 5, 5});
+    failing.h.data = {};
+    std::filesystem::remove(dir + "/f.vdb");
+    EXPECT_THROW(write_vdb(failing, dir + "/f.vdb"), Error);
+    EXPECT_FALSE(std::filesystem::exists(dir + "/f.vdb"));
+}

@@ -65,6 +65,13 @@ std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::strin
 /// Written to a temporary file in the same directory, then renamed over `path`.
 void write_vdb(const Volume& volume, const std::string& path);
 
+/// The same from planes read one after the other (streaming decode): the grid
+/// is built plane by plane (the planes are read once more first when the grid
+/// type depends on every value: a u32 volume read from an int32 grid, say), so
+/// memory holds the grid and one plane, not a dense copy besides. The same
+/// grid, metadata and transform as write_vdb on the whole volume.
+void write_vdb(VolumePlanes& planes, const std::string& path);
+
 /// The metadata keys write_vdb leaves out, in key order.
 std::vector<std::string> vdb_unstorable_keys(const Volume& volume);
 
