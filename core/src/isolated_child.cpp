@@ -45,17 +45,28 @@ constexpr int kReportedExit = 77;
 
 std::string signal_name(int sig) {
     switch (sig) {
-        case SIGSEGV: return "SIGSEGV";
-        case SIGBUS: return "SIGBUS";
-        case SIGABRT: return "SIGABRT";
-        case SIGFPE: return "SIGFPE";
-        case SIGILL: return "SIGILL";
-        case SIGKILL: return "SIGKILL";
-        case SIGTERM: return "SIGTERM";
-        case SIGTRAP: return "SIGTRAP";
-        case SIGSYS: return "SIGSYS";
-        case SIGXCPU: return "SIGXCPU";
-        default: return "signal " + std::to_string(sig);
+        case SIGSEGV:
+            return "SIGSEGV";
+        case SIGBUS:
+            return "SIGBUS";
+        case SIGABRT:
+            return "SIGABRT";
+        case SIGFPE:
+            return "SIGFPE";
+        case SIGILL:
+            return "SIGILL";
+        case SIGKILL:
+            return "SIGKILL";
+        case SIGTERM:
+            return "SIGTERM";
+        case SIGTRAP:
+            return "SIGTRAP";
+        case SIGSYS:
+            return "SIGSYS";
+        case SIGXCPU:
+            return "SIGXCPU";
+        default:
+            return "signal " + std::to_string(sig);
     }
 }
 
@@ -100,10 +111,11 @@ double now_seconds() {
 }
 
 ReportPage::ReportPage(const std::string& file) {
-    page_ = ::mmap(nullptr, sizeof(ChildReport), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+    page_ = ::mmap(nullptr, sizeof(ChildReport), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS,
+                   -1, 0);
     if (page_ == MAP_FAILED)
-        throw Error(ErrorCode::IoError, "cannot map memory to read '" + file + "' in a child process: " +
-                                            std::strerror(errno));
+        throw Error(ErrorCode::IoError, "cannot map memory to read '" + file +
+                                            "' in a child process: " + std::strerror(errno));
     static_cast<ChildReport*>(page_)->length = 0;
 }
 
@@ -122,7 +134,8 @@ bool ReportPage::has_report() const { return static_cast<const ChildReport*>(pag
 Error ReportPage::error() const {
     const auto* r = static_cast<const ChildReport*>(page_);
     int32_t code = r->code;
-    if (code <= static_cast<int32_t>(ErrorCode::Ok) || code > static_cast<int32_t>(ErrorCode::NotBuilt))
+    if (code <= static_cast<int32_t>(ErrorCode::Ok) ||
+        code > static_cast<int32_t>(ErrorCode::NotBuilt))
         code = static_cast<int32_t>(ErrorCode::CorruptData);
     return Error(static_cast<ErrorCode>(code),
                  std::string(r->message, std::min<std::size_t>(r->length, sizeof r->message)));
@@ -160,10 +173,12 @@ void child_main(const IsolatedTask& task, pid_t parent_pid, uint64_t memory_limi
         page.set(ErrorCode::TooLarge, task.library + " ran out of memory reading " + file);
         status = kReportedExit;
     } catch (const std::exception& e) {
-        page.set(ErrorCode::CorruptData, task.library + " failed reading " + file + ": " + e.what());
+        page.set(ErrorCode::CorruptData,
+                 task.library + " failed reading " + file + ": " + e.what());
         status = kReportedExit;
     } catch (...) {
-        page.set(ErrorCode::CorruptData, task.library + " failed reading " + file + " (unknown exception)");
+        page.set(ErrorCode::CorruptData,
+                 task.library + " failed reading " + file + " (unknown exception)");
         status = kReportedExit;
     }
     ::_exit(status);
@@ -193,25 +208,29 @@ void kill_and_reap(pid_t pid) {
 }
 
 Error time_limit_error(const IsolatedTask& task) {
-    return Error(ErrorCode::CorruptData,
-                 task.library + " did not finish reading '" + task.file + "' within " +
-                     seconds_text(task.time_limit_seconds) +
-                     " s and was stopped: the file is corrupt (an endless loop) or needs a longer time limit");
+    return Error(ErrorCode::CorruptData, task.library + " did not finish reading '" + task.file +
+                                             "' within " + seconds_text(task.time_limit_seconds) +
+                                             " s and was stopped: the file is corrupt (an endless "
+                                             "loop) or needs a longer time limit");
 }
 
 void throw_child_end(const IsolatedTask& task, int status, const ReportPage& page, bool complete) {
     const std::string file = "'" + task.file + "'";
     if (WIFSIGNALED(status))
-        throw Error(ErrorCode::CorruptData, task.library + " crashed (" + signal_name(WTERMSIG(status)) +
-                                                ") reading " + file + ": the file is corrupt");
-    if (WIFEXITED(status) && WEXITSTATUS(status) == kReportedExit && page.has_report()) throw page.error();
+        throw Error(ErrorCode::CorruptData, task.library + " crashed (" +
+                                                signal_name(WTERMSIG(status)) + ") reading " +
+                                                file + ": the file is corrupt");
+    if (WIFEXITED(status) && WEXITSTATUS(status) == kReportedExit && page.has_report())
+        throw page.error();
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        throw Error(ErrorCode::CorruptData, task.library + " failed reading " + file + " (exit status " +
-                                                std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                                                "): the file is corrupt");
-    if (!complete)
         throw Error(ErrorCode::CorruptData,
-                    task.library + " ended without a complete result reading " + file + ": the file is corrupt");
+                    task.library + " failed reading " + file + " (exit status " +
+                        std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
+                        "): the file is corrupt");
+    if (!complete)
+        throw Error(ErrorCode::CorruptData, task.library +
+                                                " ended without a complete result reading " + file +
+                                                ": the file is corrupt");
 }
 
 }  // namespace tetlod::isolated_detail

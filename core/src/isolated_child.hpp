@@ -25,7 +25,7 @@ double now_seconds();
 /// What the child reports when it ends with an exception: an anonymous shared
 /// mapping created before fork, so the parent sees it after the child exits.
 class ReportPage {
-public:
+  public:
     /// Throws IoError naming `file` when the mapping cannot be made.
     explicit ReportPage(const std::string& file);
     ~ReportPage();
@@ -36,7 +36,7 @@ public:
     bool has_report() const;
     Error error() const;
 
-private:
+  private:
     void* page_;
 };
 
@@ -44,8 +44,8 @@ private:
 /// signals' defaults (so a crash ends it by its signal), caps its memory at
 /// `memory_limit` (0: none), runs `body`, reports its exception in `page` and
 /// _exits (status 0 when body returned). Never returns.
-[[noreturn]] void child_main(const IsolatedTask& task, pid_t parent_pid, uint64_t memory_limit, ReportPage& page,
-                             const std::function<void()>& body);
+[[noreturn]] void child_main(const IsolatedTask& task, pid_t parent_pid, uint64_t memory_limit,
+                             ReportPage& page, const std::function<void()>& body);
 
 /// Caps the calling process's data (RLIMIT_DATA) at `bytes` beyond what it
 /// holds now (0: no cap; nothing under AddressSanitizer, whose shadow counts).

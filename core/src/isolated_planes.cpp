@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <vector>
 
-#include "tetlod/core/error.hpp"
 #include "isolated_child.hpp"
+#include "tetlod/core/error.hpp"
 #include "tetlod/core/isolated_server.hpp"
 #include "tetlod/core/isolated_volume.hpp"
 
@@ -17,23 +17,29 @@ struct Request {
     int64_t z0 = 0, count = 0;
 };
 
-uint64_t plane_bytes(const Volume& h) { return uint64_t(h.dims.x) * uint64_t(h.dims.y) * value_size(h.type); }
+uint64_t plane_bytes(const Volume& h) {
+    return uint64_t(h.dims.x) * uint64_t(h.dims.y) * value_size(h.type);
+}
 
 int64_t planes_per_piece(const Volume& h) {
-    return std::max<int64_t>(1, int64_t(kIsolatedPieceBytes / std::max<uint64_t>(1, plane_bytes(h))));
+    return std::max<int64_t>(1,
+                             int64_t(kIsolatedPieceBytes / std::max<uint64_t>(1, plane_bytes(h))));
 }
 
 void check_range(const Volume& h, int64_t z0, int64_t count, const std::string& file) {
     if (z0 < 0 || count < 0 || count > h.dims.z || z0 > h.dims.z - count)
-        throw Error(ErrorCode::InvalidArgument, "'" + file + "': planes " + std::to_string(z0) + ".." +
-                                                    std::to_string(z0 + count - 1) + " outside the volume");
+        throw Error(ErrorCode::InvalidArgument, "'" + file + "': planes " + std::to_string(z0) +
+                                                    ".." + std::to_string(z0 + count - 1) +
+                                                    " outside the volume");
 }
 
 // The child's side: open, send the header, answer requests until the parent goes.
-void serve(const IsolatedTask& task, const IsolationOptions& options, const std::function<PlanesInChild()>& open,
-           IsolatedRequests& requests, IsolatedWriter& replies) {
+void serve(const IsolatedTask& task, const IsolationOptions& options,
+           const std::function<PlanesInChild()>& open, IsolatedRequests& requests,
+           IsolatedWriter& replies) {
     PlanesInChild src = open();
-    if (!src.planes) throw Error(ErrorCode::IoError, "'" + task.file + "': nothing to read planes from");
+    if (!src.planes)
+        throw Error(ErrorCode::IoError, "'" + task.file + "': nothing to read planes from");
     const Volume& h = src.planes->header();
     send_volume_header(replies, h);
     const int64_t per = planes_per_piece(h);
@@ -55,13 +61,15 @@ void serve(const IsolatedTask& task, const IsolationOptions& options, const std:
 }
 
 class IsolatedPlanes final : public VolumePlanes {
-public:
+  public:
     IsolatedPlanes(const IsolatedTask& task, const IsolationOptions& options,
                    const std::function<PlanesInChild()>& open)
-        : options_(options),
-          server_(task, [&](IsolatedRequests& rq, IsolatedWriter& w) { serve(task, options, open, rq, w); }) {
-        server_.call(nullptr, 0, task.time_limit_seconds,
-                     [&](IsolatedReader& r) { header_ = receive_volume_header(r, server_.task()); });
+        : options_(options), server_(task, [&](IsolatedRequests& rq, IsolatedWriter& w) {
+              serve(task, options, open, rq, w);
+          }) {
+        server_.call(nullptr, 0, task.time_limit_seconds, [&](IsolatedReader& r) {
+            header_ = receive_volume_header(r, server_.task());
+        });
         plane_ = plane_bytes(header_);
     }
 
@@ -76,7 +84,7 @@ public:
                      [&](IsolatedReader& r) { r.read(dst, std::size_t(bytes)); });
     }
 
-private:
+  private:
     IsolationOptions options_;
     IsolatedServer server_;
     Volume header_;
@@ -85,7 +93,8 @@ private:
 
 }  // namespace
 
-std::unique_ptr<VolumePlanes> open_planes_isolated(const IsolatedTask& task, const IsolationOptions& options,
+std::unique_ptr<VolumePlanes> open_planes_isolated(const IsolatedTask& task,
+                                                   const IsolationOptions& options,
                                                    const std::function<PlanesInChild()>& open) {
     return std::make_unique<IsolatedPlanes>(task, options, open);
 }

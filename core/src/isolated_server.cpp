@@ -37,14 +37,16 @@ IsolatedServer::IsolatedServer(const IsolatedTask& task, const Serve& serve)
     // A socket pair, not pipes: the parent sends with MSG_NOSIGNAL, so a dead
     // child is an error and never a SIGPIPE in the parent.
     if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0)
-        throw Error(ErrorCode::IoError, "cannot create a channel to read " + file + ": " + std::strerror(errno));
+        throw Error(ErrorCode::IoError,
+                    "cannot create a channel to read " + file + ": " + std::strerror(errno));
     const pid_t parent_pid = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) {
         const int err = errno;
         ::close(sv[0]);
         ::close(sv[1]);
-        throw Error(ErrorCode::IoError, "cannot start a process to read " + file + ": " + std::strerror(err) +
+        throw Error(ErrorCode::IoError, "cannot start a process to read " + file + ": " +
+                                            std::strerror(err) +
                                             " (reading without isolation is an option)");
     }
     if (pid == 0) {
@@ -109,7 +111,8 @@ void IsolatedServer::call(const void* request, std::size_t size, double time_lim
         fail(e);
     } catch (...) {
         stop();
-        failed_ = Error(ErrorCode::CorruptData, "reading '" + task_.file + "' was stopped by an earlier failure");
+        failed_ = Error(ErrorCode::CorruptData,
+                        "reading '" + task_.file + "' was stopped by an earlier failure");
         throw;
     }
 }

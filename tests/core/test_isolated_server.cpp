@@ -89,7 +89,8 @@ TEST(IsolatedServer, AnswersRequestsInOrderAndIsReapedWhenDestroyed) {
 TEST(IsolatedServer, CrashDuringARequestIsCorruptData) {
     const Error e = failure_at(42, [] { std::raise(SIGSEGV); });
     EXPECT_EQ(e.code(), ErrorCode::CorruptData);
-    EXPECT_NE(std::string(e.what()).find("the test library crashed (SIGSEGV) reading 'input.bin'"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("the test library crashed (SIGSEGV) reading 'input.bin'"),
+              std::string::npos)
         << e.what();
 }
 
@@ -103,12 +104,14 @@ TEST(IsolatedServer, HangIsStoppedAtTheRequestsTimeLimit) {
         },
         0.5);
     EXPECT_EQ(e.code(), ErrorCode::CorruptData);
-    EXPECT_NE(std::string(e.what()).find("did not finish reading 'input.bin' within 0.5 s"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("did not finish reading 'input.bin' within 0.5 s"),
+              std::string::npos)
         << e.what();
 }
 
 TEST(IsolatedServer, ErrorsKeepTheirCodeAndMessage) {
-    const Error e = failure_at(42, [] { throw Error(ErrorCode::Truncated, "'input.bin' ends early"); });
+    const Error e =
+        failure_at(42, [] { throw Error(ErrorCode::Truncated, "'input.bin' ends early"); });
     EXPECT_EQ(e.code(), ErrorCode::Truncated);
     EXPECT_STREQ(e.what(), "'input.bin' ends early");
     const Error x = failure_at(42, [] { ::_exit(3); });
@@ -116,7 +119,8 @@ TEST(IsolatedServer, ErrorsKeepTheirCodeAndMessage) {
     EXPECT_NE(std::string(x.what()).find("exit status 3"), std::string::npos) << x.what();
     const Error z = failure_at(42, [] { ::_exit(0); });  // ends without answering
     EXPECT_EQ(z.code(), ErrorCode::CorruptData);
-    EXPECT_NE(std::string(z.what()).find("without a complete result"), std::string::npos) << z.what();
+    EXPECT_NE(std::string(z.what()).find("without a complete result"), std::string::npos)
+        << z.what();
 }
 
 TEST(IsolatedServer, MemoryLimitEndsAGreedyRequest) {
@@ -126,9 +130,9 @@ TEST(IsolatedServer, MemoryLimitEndsAGreedyRequest) {
     IsolatedTask t = task();
     t.memory_limit_bytes = uint64_t{64} << 20;
     IsolatedServer s(t, counter(42, [] {
-        std::vector<char> big(std::size_t{1} << 30, 1);  // 1 GiB: past the limit
-        if (big[12345] != 1) ::_exit(5);
-    }));
+                         std::vector<char> big(std::size_t{1} << 30, 1);  // 1 GiB: past the limit
+                         if (big[12345] != 1) ::_exit(5);
+                     }));
     pid_of(s);
     EXPECT_EQ(ask(s, 3), 4);
     try {
@@ -136,7 +140,9 @@ TEST(IsolatedServer, MemoryLimitEndsAGreedyRequest) {
         ADD_FAILURE() << "the child allocated past its limit";
     } catch (const Error& e) {
         EXPECT_EQ(e.code(), ErrorCode::TooLarge) << e.what();
-        EXPECT_NE(std::string(e.what()).find("ran out of memory reading 'input.bin'"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("ran out of memory reading 'input.bin'"),
+                  std::string::npos)
+            << e.what();
     }
 }
 
@@ -144,9 +150,10 @@ TEST(IsolatedServer, ParentExceptionKillsTheChild) {
     IsolatedServer s(task(), counter(-1, [] {}));
     const int32_t pid = pid_of(s);
     const int32_t n = 5;
-    EXPECT_THROW(s.call(&n, sizeof n, 5,
-                        [](IsolatedReader&) { throw Error(ErrorCode::SizeMismatch, "parent says no"); }),
-                 Error);
+    EXPECT_THROW(
+        s.call(&n, sizeof n, 5,
+               [](IsolatedReader&) { throw Error(ErrorCode::SizeMismatch, "parent says no"); }),
+        Error);
     EXPECT_EQ(::kill(pid_t(pid), 0), -1);
     EXPECT_THROW(ask(s, 1), Error);
 }
@@ -206,8 +213,9 @@ TEST(IsolatedPlanes, AChildThatFailsToOpenOrCrashesReadingIsAnError) {
             std::memcpy(dst, h.data.data() + z0 * 16, std::size_t(count) * 16);
         }
     };
-    auto planes = open_planes_isolated(task(), IsolationOptions{},
-                                       [] { return PlanesInChild{std::make_unique<Crashing>(), 0}; });
+    auto planes = open_planes_isolated(task(), IsolationOptions{}, [] {
+        return PlanesInChild{std::make_unique<Crashing>(), 0};
+    });
     std::vector<std::byte> buf(16 * 6);
     planes->read(0, 3, buf.data());
     try {
@@ -215,7 +223,9 @@ TEST(IsolatedPlanes, AChildThatFailsToOpenOrCrashesReadingIsAnError) {
         ADD_FAILURE() << "no error";
     } catch (const Error& e) {
         EXPECT_EQ(e.code(), ErrorCode::CorruptData);
-        EXPECT_NE(std::string(e.what()).find("crashed (SIGSEGV) reading 'input.bin'"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("crashed (SIGSEGV) reading 'input.bin'"),
+                  std::string::npos)
+            << e.what();
     }
     EXPECT_THROW(planes->read(0, 1, buf.data()), Error);
 }

@@ -21,18 +21,20 @@ namespace {
 constexpr uint64_t kReadOverheadBytes = uint64_t{8} << 20;
 
 class Hdf5Planes final : public VolumePlanes {
-public:
-    Hdf5Planes(const std::string& file, const std::string& dataset, const VolumeReadOptions& options,
-               uint64_t file_size)
-        : src_((silence_hdf5(), open_hdf5_source(file, dataset, options, file_size, /*for_planes=*/true))) {}
+  public:
+    Hdf5Planes(const std::string& file, const std::string& dataset,
+               const VolumeReadOptions& options, uint64_t file_size)
+        : src_((silence_hdf5(),
+                open_hdf5_source(file, dataset, options, file_size, /*for_planes=*/true))) {}
 
     const Volume& header() const override { return src_.header; }
 
     void read(int64_t z0, int64_t count, std::byte* dst) override {
         const Dims d = src_.header.dims;
         if (z0 < 0 || count < 0 || count > d.z || z0 > d.z - count)
-            throw Error(ErrorCode::InvalidArgument, src_.what + ": planes " + std::to_string(z0) + ".." +
-                                                        std::to_string(z0 + count - 1) + " outside the volume");
+            throw Error(ErrorCode::InvalidArgument, src_.what + ": planes " + std::to_string(z0) +
+                                                        ".." + std::to_string(z0 + count - 1) +
+                                                        " outside the volume");
         if (count > 0) read_hdf5_planes(src_, z0, count, dst, scratch_);
     }
 
@@ -42,7 +44,7 @@ public:
         return src_.cache_bytes + (src_.xyz ? max_request_bytes : 0) + kReadOverheadBytes;
     }
 
-private:
+  private:
     Hdf5Source src_;
     std::vector<std::byte> scratch_;
 };
@@ -56,7 +58,8 @@ std::unique_ptr<VolumePlanes> open_hdf5_planes(const std::string& file, const st
     const uint64_t file_size = std::filesystem::file_size(file, ec);
     if (ec) throw Error(ErrorCode::IoError, "cannot open '" + file + "': " + ec.message());
     hdf5_guard::check_hdf5_superblock(file, file_size);
-    if (!options.isolation.enabled) return std::make_unique<Hdf5Planes>(file, dataset, options, file_size);
+    if (!options.isolation.enabled)
+        return std::make_unique<Hdf5Planes>(file, dataset, options, file_size);
     // Opening parses the file's metadata under the whole read's limits; each
     // plane request then has its own deadline and a memory cap of what it needs.
     IsolatedTask task{"the HDF5 library", file, isolation_time_limit(options.isolation, file_size),

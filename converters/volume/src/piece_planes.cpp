@@ -15,7 +15,7 @@ namespace {
 
 // One piece's compressed stream, from its start, moving forward.
 class Inflater {
-public:
+  public:
     Inflater(const DataPiece& piece, const std::string& what) : piece_(piece), what_(what) {
         if (piece.byte_skip < 0)
             throw Error(ErrorCode::UnsupportedFeature,
@@ -23,7 +23,8 @@ public:
         f_ = open_read(piece.path, what);
         seek_to(f_.get(), piece.file_offset, piece.path);
         skip_lines(f_.get(), piece.line_skip, piece.file_offset, piece.path, what);
-        if (inflateInit2(&zs_, 15 + 32) != Z_OK) throw Error(ErrorCode::IoError, what + ": cannot initialise zlib");
+        if (inflateInit2(&zs_, 15 + 32) != Z_OK)
+            throw Error(ErrorCode::IoError, what + ": cannot initialise zlib");
         in_.resize(kZChunk);
         discard_.resize(kZChunk);
         skip(uint64_t(piece.byte_skip));  // counted in the decompressed stream
@@ -40,9 +41,10 @@ public:
     /// piece's sample bytes, for messages.
     void next(std::byte* dst, uint64_t n, uint64_t declared) {
         auto truncated = [&] {
-            return Error(ErrorCode::Truncated, what_ + ": data file '" + piece_.path +
-                                                   "' is truncated: it decompresses to " + std::to_string(produced_) +
-                                                   " bytes, but the header declares " + std::to_string(declared));
+            return Error(ErrorCode::Truncated,
+                         what_ + ": data file '" + piece_.path +
+                             "' is truncated: it decompresses to " + std::to_string(produced_) +
+                             " bytes, but the header declares " + std::to_string(declared));
         };
         while (n > 0) {
             if (zs_.avail_in == 0) fill();
@@ -52,11 +54,14 @@ public:
                 stream_end_ = false;
             }
             const uint64_t want = std::min<uint64_t>(n, kZChunk);
-            zs_.next_out = dst ? reinterpret_cast<Bytef*>(dst) : reinterpret_cast<Bytef*>(discard_.data());
+            zs_.next_out =
+                dst ? reinterpret_cast<Bytef*>(dst) : reinterpret_cast<Bytef*>(discard_.data());
             zs_.avail_out = uInt(want);
             const int rc = inflate(&zs_, Z_NO_FLUSH);
-            if (rc == Z_STREAM_END) stream_end_ = true;
-            else if (rc != Z_OK && rc != Z_BUF_ERROR) throw corrupt();
+            if (rc == Z_STREAM_END)
+                stream_end_ = true;
+            else if (rc != Z_OK && rc != Z_BUF_ERROR)
+                throw corrupt();
             const uint64_t got = want - zs_.avail_out;
             if (got == 0 && !stream_end_ && zs_.avail_in == 0 && eof_) throw truncated();
             produced_ += got;
@@ -73,28 +78,33 @@ public:
             zs_.next_out = reinterpret_cast<Bytef*>(discard_.data());
             zs_.avail_out = uInt(discard_.size());
             const int rc = inflate(&zs_, Z_NO_FLUSH);
-            if (rc == Z_STREAM_END) stream_end_ = true;
-            else if (rc != Z_OK && rc != Z_BUF_ERROR) throw corrupt();
+            if (rc == Z_STREAM_END)
+                stream_end_ = true;
+            else if (rc != Z_OK && rc != Z_BUF_ERROR)
+                throw corrupt();
             if (!stream_end_ && zs_.avail_out == discard_.size() && zs_.avail_in == 0 && eof_)
-                throw Error(ErrorCode::Truncated, what_ + ": data file '" + piece_.path +
-                                                      "' is truncated: the compressed stream has no end");
+                throw Error(ErrorCode::Truncated,
+                            what_ + ": data file '" + piece_.path +
+                                "' is truncated: the compressed stream has no end");
         }
     }
 
-private:
+  private:
     void skip(uint64_t n) { next(nullptr, n, n); }
 
     void fill() {
         const std::size_t n = std::fread(in_.data(), 1, in_.size(), f_.get());
         if (n == 0 && std::ferror(f_.get()))
-            throw Error(ErrorCode::IoError, what_ + ": cannot read data file '" + piece_.path + "'");
+            throw Error(ErrorCode::IoError,
+                        what_ + ": cannot read data file '" + piece_.path + "'");
         eof_ = n == 0;
         zs_.next_in = in_.data();
         zs_.avail_in = uInt(n);
     }
 
     Error corrupt() const {
-        return Error(ErrorCode::CorruptData, what_ + ": compressed data in '" + piece_.path + "' is corrupt (" +
+        return Error(ErrorCode::CorruptData, what_ + ": compressed data in '" + piece_.path +
+                                                 "' is corrupt (" +
                                                  (zs_.msg ? zs_.msg : "zlib error") + ")");
     }
 
@@ -109,14 +119,18 @@ private:
 };
 
 class PiecePlanes final : public VolumePlanes {
-public:
-    PiecePlanes(Volume header, std::vector<DataPiece> pieces, Compression compression, Endian endian,
-                std::string what)
-        : header_(std::move(header)), pieces_(std::move(pieces)), compressed_(compression != Compression::None),
-          swap_(endian != host_endian()), what_(std::move(what)) {
+  public:
+    PiecePlanes(Volume header, std::vector<DataPiece> pieces, Compression compression,
+                Endian endian, std::string what)
+        : header_(std::move(header)),
+          pieces_(std::move(pieces)),
+          compressed_(compression != Compression::None),
+          swap_(endian != host_endian()),
+          what_(std::move(what)) {
         header_.data = {};
         plane_ = uint64_t(header_.dims.x) * uint64_t(header_.dims.y) * value_size(header_.type);
-        per_piece_ = plane_ * uint64_t(header_.dims.z) / pieces_.size();  // checked to divide evenly
+        per_piece_ =
+            plane_ * uint64_t(header_.dims.z) / pieces_.size();  // checked to divide evenly
         raw_start_.resize(pieces_.size());
     }
 
@@ -125,8 +139,9 @@ public:
     void read(int64_t z0, int64_t count, std::byte* dst) override {
         const Dims d = header_.dims;
         if (z0 < 0 || count < 0 || count > d.z || z0 > d.z - count)
-            throw Error(ErrorCode::InvalidArgument, what_ + ": planes " + std::to_string(z0) + ".." +
-                                                        std::to_string(z0 + count - 1) + " outside the volume");
+            throw Error(ErrorCode::InvalidArgument, what_ + ": planes " + std::to_string(z0) +
+                                                        ".." + std::to_string(z0 + count - 1) +
+                                                        " outside the volume");
         if (count == 0) return;
         if (count == 1 && z0 == last_z_) {
             std::memcpy(dst, last_.data(), std::size_t(plane_));
@@ -137,8 +152,10 @@ public:
             const std::size_t i = std::size_t(at / per_piece_);
             const uint64_t off = at - uint64_t(i) * per_piece_;
             const uint64_t n = std::min(end - at, per_piece_ - off);
-            if (compressed_) inflate_from(i, off, dst + (at - begin), n);
-            else read_raw(i, off, dst + (at - begin), n);
+            if (compressed_)
+                inflate_from(i, off, dst + (at - begin), n);
+            else
+                read_raw(i, off, dst + (at - begin), n);
             at += n;
         }
         if (swap_) swap_bytes(dst, std::size_t(end - begin), value_size(header_.type));
@@ -148,7 +165,7 @@ public:
         }
     }
 
-private:
+  private:
     void read_raw(std::size_t i, uint64_t off, std::byte* dst, uint64_t n) {
         const DataPiece& p = pieces_[i];
         if (open_ != i || !file_) {
@@ -168,8 +185,8 @@ private:
             const std::size_t k = std::size_t(std::min<uint64_t>(kIoChunk, n - done));
             if (std::fread(dst + done, 1, k, file_.get()) != k)
                 throw Error(ErrorCode::Truncated, what_ + ": cannot read data file '" + p.path +
-                                                      "' (ended or failed at byte " + std::to_string(start + done) +
-                                                      ")");
+                                                      "' (ended or failed at byte " +
+                                                      std::to_string(start + done) + ")");
             done += k;
         }
     }
@@ -191,20 +208,21 @@ private:
     bool compressed_, swap_;
     std::string what_;
     uint64_t plane_ = 0, per_piece_ = 0;
-    std::size_t open_ = 0;                          // the piece of file_ or stream_
-    FilePtr file_;                                  // raw: the open data file
+    std::size_t open_ = 0;                            // the piece of file_ or stream_
+    FilePtr file_;                                    // raw: the open data file
     std::vector<std::optional<uint64_t>> raw_start_;  // raw: where each piece's samples start
-    std::optional<Inflater> stream_;                // compressed: the current piece's stream
-    std::vector<std::byte> last_;                   // compressed: the last plane read
+    std::optional<Inflater> stream_;                  // compressed: the current piece's stream
+    std::vector<std::byte> last_;                     // compressed: the last plane read
     int64_t last_z_ = -1;
 };
 
 }  // namespace
 
 std::unique_ptr<VolumePlanes> open_piece_planes(Volume header, std::vector<DataPiece> pieces,
-                                                Compression compression, Endian file_endian, std::string what) {
-    return std::make_unique<PiecePlanes>(std::move(header), std::move(pieces), compression, file_endian,
-                                         std::move(what));
+                                                Compression compression, Endian file_endian,
+                                                std::string what) {
+    return std::make_unique<PiecePlanes>(std::move(header), std::move(pieces), compression,
+                                         file_endian, std::move(what));
 }
 
 }  // namespace tetlod::detail

@@ -20,6 +20,7 @@ namespace tetlod::detail {
 /// must have been checked (check_piece_sizes). Errors name `what` and the data
 /// file (Truncated, CorruptData, IoError).
 std::unique_ptr<VolumePlanes> open_piece_planes(Volume header, std::vector<DataPiece> pieces,
-                                                Compression compression, Endian file_endian, std::string what);
+                                                Compression compression, Endian file_endian,
+                                                std::string what);
 
 }  // namespace tetlod::detail

@@ -93,7 +93,8 @@ TEST(NrrdPlanes, GzipAndZlibStreams) {
     const std::string dir = tmp_dir("nrrd_planes_gz");
     Volume v = read_nrrd([&] {
         write_text(dir + "/src.raw", samples(0, Z));
-        write_text(dir + "/src.nhdr", kHead + "encoding: raw\nendian: little\ndata file: src.raw\n");
+        write_text(dir + "/src.nhdr",
+                   kHead + "encoding: raw\nendian: little\ndata file: src.raw\n");
         return dir + "/src.nhdr";
     }());
     v.metadata["k"] = "v";
@@ -104,10 +105,13 @@ TEST(NrrdPlanes, GzipAndZlibStreams) {
     // Detached, big endian, two lines skipped before the stream and 5 bytes
     // skipped inside it.
     write_text(dir + "/d.gz", "one\ntwo\n" + deflate_bytes("12345" + samples(0, Z, true), true));
-    write_text(dir + "/d.nhdr", kHead + "encoding: gzip\nendian: big\nline skip: 2\nbyte skip: 5\ndata file: d.gz\n");
+    write_text(
+        dir + "/d.nhdr",
+        kHead + "encoding: gzip\nendian: big\nline skip: 2\nbyte skip: 5\ndata file: d.gz\n");
     check(dir + "/d.nhdr");
     // Two concatenated gzip members.
-    write_text(dir + "/m.gz", deflate_bytes(samples(0, 4), true) + deflate_bytes(samples(4, Z - 4), true));
+    write_text(dir + "/m.gz",
+               deflate_bytes(samples(0, 4), true) + deflate_bytes(samples(4, Z - 4), true));
     write_text(dir + "/m.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: m.gz\n");
     check(dir + "/m.nhdr");
     // MetaImage: zlib, attached and detached.
@@ -129,14 +133,18 @@ TEST(NrrdPlanes, SeveralDataFiles) {
         write_text(dir + "/p" + std::to_string(k) + ".raw", samples(2 * k, 2));
         write_text(dir + "/p" + std::to_string(k) + ".gz", deflate_bytes(samples(2 * k, 2), true));
     }
-    write_text(dir + "/slices.nhdr", kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 10 1\n");
+    write_text(dir + "/slices.nhdr",
+               kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 10 1\n");
     check(dir + "/slices.nhdr");
-    write_text(dir + "/skips.nhdr", kHead + "encoding: raw\nendian: little\nline skip: 1\ndata file: l%d.raw 1 10 1\n");
+    write_text(dir + "/skips.nhdr",
+               kHead + "encoding: raw\nendian: little\nline skip: 1\ndata file: l%d.raw 1 10 1\n");
     check(dir + "/skips.nhdr");
-    write_text(dir + "/pairs.nhdr",
-               kHead + "encoding: raw\nendian: little\ndata file: LIST\np0.raw\np1.raw\np2.raw\np3.raw\np4.raw\n");
+    write_text(dir + "/pairs.nhdr", kHead +
+                                        "encoding: raw\nendian: little\ndata file: "
+                                        "LIST\np0.raw\np1.raw\np2.raw\np3.raw\np4.raw\n");
     check(dir + "/pairs.nhdr");
-    write_text(dir + "/gz.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: p%d.gz 0 4 1\n");
+    write_text(dir + "/gz.nhdr",
+               kHead + "encoding: gzip\nendian: little\ndata file: p%d.gz 0 4 1\n");
     check(dir + "/gz.nhdr");
 }
 
@@ -167,15 +175,21 @@ TEST(NrrdPlanes, BadStreamsAndFilesAreCleanErrors) {
         EXPECT_NE(std::string(e.what()).find("b.gz"), std::string::npos) << e.what();
     }
     // A missing slice, a short slice, a data file outside the header's folder.
-    for (int64_t z = 0; z < Z; ++z) write_text(dir + "/s" + std::to_string(z + 1) + ".raw", samples(z, 1));
+    for (int64_t z = 0; z < Z; ++z)
+        write_text(dir + "/s" + std::to_string(z + 1) + ".raw", samples(z, 1));
     write_text(dir + "/s4.raw", samples(3, 1).substr(1));
-    write_text(dir + "/short.nhdr", kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 10 1\n");
-    expect_error([&] { open_nrrd_planes(dir + "/short.nhdr", {}); }, ErrorCode::Truncated, {"s4.raw"});
-    write_text(dir + "/gap.nhdr", kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 11 1\n");
+    write_text(dir + "/short.nhdr",
+               kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 10 1\n");
+    expect_error([&] { open_nrrd_planes(dir + "/short.nhdr", {}); }, ErrorCode::Truncated,
+                 {"s4.raw"});
+    write_text(dir + "/gap.nhdr",
+               kHead + "encoding: raw\nendian: little\ndata file: s%d.raw 1 11 1\n");
     EXPECT_THROW(open_nrrd_planes(dir + "/gap.nhdr", {}), Error);
     std::filesystem::create_directories(dir + "/sub");
-    write_text(dir + "/sub/out.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: ../t.gz\n");
-    expect_error([&] { open_nrrd_planes(dir + "/sub/out.nhdr", {}); }, ErrorCode::UnsupportedFeature, {"t.gz"});
+    write_text(dir + "/sub/out.nhdr",
+               kHead + "encoding: gzip\nendian: little\ndata file: ../t.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/sub/out.nhdr", {}); },
+                 ErrorCode::UnsupportedFeature, {"t.gz"});
     VolumeReadOptions allow;
     allow.allow_external_data = true;
     EXPECT_TRUE(open_nrrd_planes(dir + "/sub/out.nhdr", allow));

@@ -38,8 +38,10 @@ openvdb::GridBase::Ptr sparse(typename GridT::ValueType bg,
     for (int z = 0; z < 20; ++z)
         for (int y = 0; y < 17; ++y)
             for (int x = 0; x < 23; ++x)
-                if ((x + y + z) % 3 == 0) acc.setValue(openvdb::Coord(x, y, z), v(x, y, z));
-                else if ((x * y + z) % 7 == 0) acc.setValueOff(openvdb::Coord(x, y, z), v(x, y, z));
+                if ((x + y + z) % 3 == 0)
+                    acc.setValue(openvdb::Coord(x, y, z), v(x, y, z));
+                else if ((x * y + z) % 7 == 0)
+                    acc.setValueOff(openvdb::Coord(x, y, z), v(x, y, z));
     g->tree().addTile(1, openvdb::Coord(8, 8, 8), v(1, 2, 3), true);
     if (with_dims) g->insertMeta("dims_xyz", openvdb::Vec3IMetadata(openvdb::Vec3i(23, 19, 21)));
     if (original_dtype) g->insertMeta("original_dtype", openvdb::StringMetadata(original_dtype));
@@ -69,7 +71,8 @@ void check(const std::string& path, ValueType expected) {
             if (how == 2) std::shuffle(order.begin(), order.end(), std::mt19937(9));
             std::vector<std::byte> got(whole.data.size());
             for (int64_t z : order) planes->read(z, 1, got.data() + std::size_t(z) * plane);
-            EXPECT_TRUE(got == std::vector<std::byte>(whole.data.begin(), whole.data.end())) << "order " << how;
+            EXPECT_TRUE(got == std::vector<std::byte>(whole.data.begin(), whole.data.end()))
+                << "order " << how;
         }
         std::vector<std::byte> all(whole.data.size());
         planes->read(0, h.dims.z, all.data());
@@ -87,23 +90,38 @@ TEST(VdbPlanes, EveryGridTypeSparseGridsAndNarrowingEqualTheWholeRead) {
         openvdb::GridBase::Ptr grid;
         ValueType expected;
     };
-    using openvdb::BoolGrid, openvdb::DoubleGrid, openvdb::FloatGrid, openvdb::Int32Grid, openvdb::Int64Grid;
+    using openvdb::BoolGrid, openvdb::DoubleGrid, openvdb::FloatGrid, openvdb::Int32Grid,
+        openvdb::Int64Grid;
     const Case cases[] = {
-        {"f", sparse<FloatGrid>(-0.5f, [](int x, int y, int z) { return float(x * 0.25 - y + z * 3); }),
+        {"f",
+         sparse<FloatGrid>(-0.5f, [](int x, int y, int z) { return float(x * 0.25 - y + z * 3); }),
          ValueType::F32},
-        {"f_nan", sparse<FloatGrid>(std::numeric_limits<float>::quiet_NaN(), [](int x, int, int) { return -0.0f * float(x); }),
+        {"f_nan",
+         sparse<FloatGrid>(std::numeric_limits<float>::quiet_NaN(),
+                           [](int x, int, int) { return -0.0f * float(x); }),
          ValueType::F32},
-        {"f_u8", sparse<FloatGrid>(0.f, [](int x, int y, int) { return float((x + y) % 200); }, "uint8"),
+        {"f_u8",
+         sparse<FloatGrid>(
+             0.f, [](int x, int y, int) { return float((x + y) % 200); }, "uint8"),
          ValueType::U8},
-        {"f_u8_no", sparse<FloatGrid>(0.f, [](int x, int, int) { return float(x) + 0.5f; }, "uint8"),
+        {"f_u8_no",
+         sparse<FloatGrid>(
+             0.f, [](int x, int, int) { return float(x) + 0.5f; }, "uint8"),
          ValueType::F32},  // not exact: stays float
-        {"d", sparse<DoubleGrid>(7.0, [](int x, int y, int z) { return x / 3.0 + y - z; }), ValueType::F64},
-        {"i32", sparse<Int32Grid>(-5, [](int x, int y, int z) { return x * 1000 - y * 77 + z; }), ValueType::I32},
-        {"i64", sparse<Int64Grid>(3, [](int x, int y, int z) { return int64_t(x) * 100000 - y - z; }),
+        {"d", sparse<DoubleGrid>(7.0, [](int x, int y, int z) { return x / 3.0 + y - z; }),
+         ValueType::F64},
+        {"i32", sparse<Int32Grid>(-5, [](int x, int y, int z) { return x * 1000 - y * 77 + z; }),
          ValueType::I32},
-        {"i64_u32", sparse<Int64Grid>(0, [](int x, int, int) { return int64_t(4000000000) + x; }), ValueType::U32},
+        {"i64",
+         sparse<Int64Grid>(3, [](int x, int y, int z) { return int64_t(x) * 100000 - y - z; }),
+         ValueType::I32},
+        {"i64_u32", sparse<Int64Grid>(0, [](int x, int, int) { return int64_t(4000000000) + x; }),
+         ValueType::U32},
         {"b", sparse<BoolGrid>(false, [](int x, int, int) { return x % 2 == 0; }), ValueType::U8},
-        {"bbox", sparse<FloatGrid>(1.f, [](int x, int, int) { return float(x); }, nullptr, false), ValueType::F32},
+        {"bbox",
+         sparse<FloatGrid>(
+             1.f, [](int x, int, int) { return float(x); }, nullptr, false),
+         ValueType::F32},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -134,7 +152,8 @@ TEST(VdbPlanes, BadFilesAreCleanErrors) {
     }
     VolumeReadOptions o;
     o.grid = "nope";
-    expect_error([&] { open_vdb_planes(dir + "/v.vdb", o); }, ErrorCode::NotFound, {"v.vdb", "nope"});
+    expect_error([&] { open_vdb_planes(dir + "/v.vdb", o); }, ErrorCode::NotFound,
+                 {"v.vdb", "nope"});
 }
 
 TEST(VdbPlanes, WriterFedPlanesWritesTheWholeWritersGrid) {

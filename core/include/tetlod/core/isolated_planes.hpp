@@ -34,7 +34,8 @@ inline constexpr uint64_t kIsolatedPieceBytes = uint64_t{16} << 20;
 /// must finish within isolation_time_limit(options, bytes read). Errors as
 /// IsolatedServer's (tetlod::Error naming task.file); the child is killed and
 /// reaped when the result is destroyed.
-std::unique_ptr<VolumePlanes> open_planes_isolated(const IsolatedTask& task, const IsolationOptions& options,
+std::unique_ptr<VolumePlanes> open_planes_isolated(const IsolatedTask& task,
+                                                   const IsolationOptions& options,
                                                    const std::function<PlanesInChild()>& open);
 
 }  // namespace tetlod

@@ -34,19 +34,19 @@ class ReportPage;
 
 /// The child's end of the request channel.
 class IsolatedRequests {
-public:
+  public:
     explicit IsolatedRequests(int fd) : fd_(fd) {}
     /// Reads exactly `size` bytes of the next request, waiting as long as it
     /// takes. False when the parent closed the channel before its first byte
     /// (serve should return); a request cut short throws IoError.
     bool next(void* data, std::size_t size);
 
-private:
+  private:
     int fd_;
 };
 
 class IsolatedServer {
-public:
+  public:
     using Serve = std::function<void(IsolatedRequests& requests, IsolatedWriter& replies)>;
     /// Forks the child (task.memory_limit_bytes caps its data beyond what the
     /// process holds when it forks; 0: none). Throws IoError when it cannot.
@@ -62,7 +62,7 @@ public:
 
     const IsolatedTask& task() const { return task_; }
 
-private:
+  private:
     [[noreturn]] void fail(const Error& e);
     void stop();
 
