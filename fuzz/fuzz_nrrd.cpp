@@ -2,11 +2,17 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "fuzz_read_planes.hpp"
 #include "fuzz_volume_header.hpp"
 #include "tetlod/converters/nrrd.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     tetlod_fuzz::read_header_and_data(data, size, "h.nrrd",
                                       [](const std::string& p) { return tetlod::read_nrrd(p); });
+    // The same input plane by plane (streams, several data files, offsets).
+    tetlod_fuzz::read_header_and_data(data, size, "h.nrrd", [](const std::string& p) {
+        tetlod::fuzz::read_every_plane(tetlod::open_nrrd_planes(p, {}));
+        return tetlod::Volume{};
+    });
     return 0;
 }

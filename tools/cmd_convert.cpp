@@ -59,7 +59,8 @@ int run_convert(const ConvertArgs& a) {
         }
     };
     // The HT alone is converted plane by plane, in bounded memory, from a
-    // format that reads planes by offset; the rest reads the volume whole.
+    // format that reads planes (raw, NRRD, MetaImage, HDF5, OpenVDB); the
+    // rest (formats added without open_planes) reads the volume whole.
     std::unique_ptr<VolumePlanes> planes;
     if (with_ht && !with_mt && !a.in_memory) planes = open_volume_planes(a.input, a.volume.options());
     std::optional<Volume> whole;
@@ -72,8 +73,7 @@ int run_convert(const ConvertArgs& a) {
         if (!a.memory.empty() && !a.in_memory)
             detail("note: " + a.input + " is read whole (" +
                    std::string(with_mt ? "the MT is built in memory"
-                                       : "only raw, and NRRD/MetaImage with one uncompressed data block, "
-                                         "are read plane by plane") +
+                                       : "its format is not read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);

@@ -87,7 +87,7 @@ int run_decode(const DecodeArgs& a) {
     if (!lod) {  // the original volume, bit-exact
         if (container) {
             // Plane by plane: a container decodes a row of bricks at a time and
-            // raw/NRRD/MetaImage outputs take it plane by plane.
+            // every built-in output format takes it plane by plane.
             ProgressBar bar("decoding", "planes");
             ProgressPlanes planes(open_container_planes(a.input).take(), bar);
             write_volume(planes, a.output, a.format);

@@ -1,14 +1,10 @@
-// run_isolated: fork, pipe, deadline. See isolated_process.hpp for the contract.
+// run_isolated: fork, pipe, deadline. See isolated_process.hpp for the contract;
+// the child's setup and the meaning of its end are in isolated_child.cpp.
 #include "tetlod/core/isolated_process.hpp"
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/mman.h>
-#include <sys/prctl.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <time.h>
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,95 +13,12 @@
 #include <cstring>
 #include <new>
 
+#include "isolated_child.hpp"
 #include "tetlod/core/error.hpp"
-
-// AddressSanitizer maps terabytes of shadow memory as private writable memory:
-// under it, a data limit would make every allocation in the child fail.
-#if defined(__SANITIZE_ADDRESS__)
-#define TETLOD_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TETLOD_ASAN 1
-#endif
-#endif
-#ifndef TETLOD_ASAN
-#define TETLOD_ASAN 0
-#endif
 
 namespace tetlod {
 
-namespace {
-
-// Thrown by IsolatedReader; deliberately not std::exception, so a parent
-// callback's catch (const std::exception&) cannot swallow them.
-struct ChildEndedEarly {};
-struct TimeRanOut {};
-
-double now_seconds() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
-
-// What the child reports when it ends with an exception: lives in an anonymous
-// shared mapping created before fork, so the parent sees it after the child exits.
-struct ChildReport {
-    int32_t code;
-    uint32_t length;
-    char message[65536 - 8];
-};
-
-// Exit status of a child that wrote a ChildReport.
-constexpr int kReportedExit = 77;
-
-void report(ChildReport* r, ErrorCode code, const std::string& message) {
-    r->code = static_cast<int32_t>(code);
-    const std::size_t n = std::min(message.size(), sizeof r->message);
-    std::memcpy(r->message, message.data(), n);
-    r->length = static_cast<uint32_t>(n);
-}
-
-std::string signal_name(int sig) {
-    switch (sig) {
-        case SIGSEGV: return "SIGSEGV";
-        case SIGBUS: return "SIGBUS";
-        case SIGABRT: return "SIGABRT";
-        case SIGFPE: return "SIGFPE";
-        case SIGILL: return "SIGILL";
-        case SIGKILL: return "SIGKILL";
-        case SIGTERM: return "SIGTERM";
-        case SIGTRAP: return "SIGTRAP";
-        case SIGSYS: return "SIGSYS";
-        case SIGXCPU: return "SIGXCPU";
-        default: return "signal " + std::to_string(sig);
-    }
-}
-
-std::string seconds_text(double s) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g", s);
-    return buf;
-}
-
-// Waits for the child until the deadline; kills it if it is still running then.
-// Returns the wait status and whether the child had to be killed.
-std::pair<int, bool> reap(pid_t pid, double deadline) {
-    int status = 0;
-    for (;;) {
-        pid_t r = ::waitpid(pid, &status, WNOHANG);
-        if (r == pid) return {status, false};
-        if (r < 0 && errno != EINTR) return {0, false};
-        if (now_seconds() >= deadline) break;
-        timespec pause{0, 2'000'000};
-        ::nanosleep(&pause, nullptr);
-    }
-    ::kill(pid, SIGKILL);
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-    }
-    return {status, true};
-}
-
-}  // namespace
+using namespace isolated_detail;
 
 double isolation_time_limit(const IsolationOptions& options, uint64_t input_bytes) {
     if (options.timeout_seconds > 0) return options.timeout_seconds;
@@ -161,17 +74,7 @@ bool IsolatedReader::at_end() {
 void run_isolated(const IsolatedTask& task, const std::function<void(IsolatedWriter&)>& child,
                   const std::function<void(IsolatedReader&)>& parent) {
     const std::string file = "'" + task.file + "'";
-    void* shared = ::mmap(nullptr, sizeof(ChildReport), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-    if (shared == MAP_FAILED)
-        throw Error(ErrorCode::IoError, "cannot map memory to read " + file + " in a child process: " +
-                                            std::strerror(errno));
-    struct Unmap {
-        void* p;
-        ~Unmap() { ::munmap(p, sizeof(ChildReport)); }
-    } unmap{shared};
-    auto* rep = static_cast<ChildReport*>(shared);
-    rep->length = 0;
-
+    ReportPage page(task.file);
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0)
         throw Error(ErrorCode::IoError, "cannot create a pipe to read " + file + ": " + std::strerror(errno));
@@ -186,37 +89,11 @@ void run_isolated(const IsolatedTask& task, const std::function<void(IsolatedWri
                                             " (reading without isolation is an option)");
     }
     if (pid == 0) {
-        // Child: never returns, never runs the parent's atexit handlers.
         ::close(fds[0]);
-        ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-        if (::getppid() != parent_pid) ::_exit(kReportedExit);
-        ::signal(SIGPIPE, SIG_IGN);
-        // A crash in the library must end the child by its signal, so the parent
-        // can name it: handlers inherited from the parent (sanitizers', libFuzzer's)
-        // would turn it into an ordinary exit and, under libFuzzer, write a crash file.
-        for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
-        if (task.memory_limit_bytes > 0 && !TETLOD_ASAN) {
-            const rlimit cap{rlim_t(task.memory_limit_bytes), rlim_t(task.memory_limit_bytes)};
-            ::setrlimit(RLIMIT_DATA, &cap);
-        }
-        int status = 0;
-        try {
+        child_main(task, parent_pid, task.memory_limit_bytes, page, [&] {
             IsolatedWriter w(fds[1]);
             child(w);
-        } catch (const Error& e) {
-            report(rep, e.code(), e.what());
-            status = kReportedExit;
-        } catch (const std::bad_alloc&) {
-            report(rep, ErrorCode::TooLarge, task.library + " ran out of memory reading " + file);
-            status = kReportedExit;
-        } catch (const std::exception& e) {
-            report(rep, ErrorCode::CorruptData, task.library + " failed reading " + file + ": " + e.what());
-            status = kReportedExit;
-        } catch (...) {
-            report(rep, ErrorCode::CorruptData, task.library + " failed reading " + file + " (unknown exception)");
-            status = kReportedExit;
-        }
-        ::_exit(status);
+        });
     }
 
     ::close(fds[1]);
@@ -236,36 +113,13 @@ void run_isolated(const IsolatedTask& task, const std::function<void(IsolatedWri
     } catch (const TimeRanOut&) {
         timed_out = true;
     } catch (...) {
-        ::kill(pid, SIGKILL);
-        int st;
-        while (::waitpid(pid, &st, 0) < 0 && errno == EINTR) {
-        }
+        kill_and_reap(pid);
         throw;
     }
     if (timed_out) ::kill(pid, SIGKILL);
     auto [status, killed] = reap(pid, timed_out ? now_seconds() : deadline);
-    if (timed_out || (killed && !complete))
-        throw Error(ErrorCode::CorruptData,
-                    task.library + " did not finish reading " + file + " within " +
-                        seconds_text(task.time_limit_seconds) +
-                        " s and was stopped: the file is corrupt (an endless loop) or needs a longer time limit");
-    if (WIFSIGNALED(status))
-        throw Error(ErrorCode::CorruptData, task.library + " crashed (" + signal_name(WTERMSIG(status)) +
-                                                ") reading " + file + ": the file is corrupt");
-    if (WIFEXITED(status) && WEXITSTATUS(status) == kReportedExit && rep->length > 0) {
-        int32_t code = rep->code;
-        if (code <= static_cast<int32_t>(ErrorCode::Ok) || code > static_cast<int32_t>(ErrorCode::NotBuilt))
-            code = static_cast<int32_t>(ErrorCode::CorruptData);
-        throw Error(static_cast<ErrorCode>(code),
-                    std::string(rep->message, std::min<std::size_t>(rep->length, sizeof rep->message)));
-    }
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        throw Error(ErrorCode::CorruptData, task.library + " failed reading " + file + " (exit status " +
-                                                std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                                                "): the file is corrupt");
-    if (!complete)
-        throw Error(ErrorCode::CorruptData,
-                    task.library + " ended without a complete result reading " + file + ": the file is corrupt");
+    if (timed_out || (killed && !complete)) throw time_limit_error(task);
+    throw_child_end(task, status, page, complete);
 }
 
 }  // namespace tetlod

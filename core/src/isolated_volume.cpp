@@ -46,54 +46,65 @@ std::string get_string(IsolatedReader& r, const IsolatedTask& task) {
 
 }  // namespace
 
+void send_volume_header(IsolatedWriter& w, const Volume& v) {
+    w.write(kMagic, sizeof kMagic);
+    put<uint32_t>(w, static_cast<uint32_t>(v.type));
+    put<int64_t>(w, v.dims.x);
+    put<int64_t>(w, v.dims.y);
+    put<int64_t>(w, v.dims.z);
+    for (double s : v.spacing) put<double>(w, s);
+    for (double o : v.origin) put<double>(w, o);
+    put_string(w, v.field_name);
+    put_string(w, v.units);
+    put<uint64_t>(w, v.metadata.size());
+    for (const auto& [k, val] : v.metadata) {
+        put_string(w, k);
+        put_string(w, val);
+    }
+}
+
+Volume receive_volume_header(IsolatedReader& r, const IsolatedTask& task) {
+    Volume out;
+    char magic[4];
+    r.read(magic, sizeof magic);
+    if (std::memcmp(magic, kMagic, sizeof magic) != 0) throw bad_result(task, "bad frame");
+    const uint32_t type = get<uint32_t>(r);
+    if (type < static_cast<uint32_t>(ValueType::U8) || type > static_cast<uint32_t>(ValueType::F64))
+        throw bad_result(task, "value type");
+    out.type = static_cast<ValueType>(type);
+    out.dims.x = get<int64_t>(r);
+    out.dims.y = get<int64_t>(r);
+    out.dims.z = get<int64_t>(r);
+    try {
+        validate_dims(out.dims, "'" + task.file + "'");
+    } catch (const Error& e) {
+        throw bad_result(task, e.what());
+    }
+    for (double& s : out.spacing) s = get<double>(r);
+    for (double& o : out.origin) o = get<double>(r);
+    out.field_name = get_string(r, task);
+    out.units = get_string(r, task);
+    const uint64_t entries = get<uint64_t>(r);
+    if (entries > kMaxEntries) throw bad_result(task, std::to_string(entries) + " metadata entries");
+    for (uint64_t i = 0; i < entries; ++i) {
+        std::string k = get_string(r, task);
+        out.metadata[std::move(k)] = get_string(r, task);
+    }
+    return out;
+}
+
 Volume read_volume_isolated(const IsolatedTask& task, const std::function<Volume()>& read) {
     Volume out;
     run_isolated(
         task,
         [&](IsolatedWriter& w) {
             Volume v = read();
-            w.write(kMagic, sizeof kMagic);
-            put<uint32_t>(w, static_cast<uint32_t>(v.type));
-            put<int64_t>(w, v.dims.x);
-            put<int64_t>(w, v.dims.y);
-            put<int64_t>(w, v.dims.z);
-            for (double s : v.spacing) put<double>(w, s);
-            for (double o : v.origin) put<double>(w, o);
-            put_string(w, v.field_name);
-            put_string(w, v.units);
-            put<uint64_t>(w, v.metadata.size());
-            for (const auto& [k, val] : v.metadata) {
-                put_string(w, k);
-                put_string(w, val);
-            }
+            send_volume_header(w, v);
             put<uint64_t>(w, v.data.size());
             w.write(v.data.data(), v.data.size());
         },
         [&](IsolatedReader& r) {
-            char magic[4];
-            r.read(magic, sizeof magic);
-            if (std::memcmp(magic, kMagic, sizeof magic) != 0) throw bad_result(task, "bad frame");
-            const uint32_t type = get<uint32_t>(r);
-            if (type < static_cast<uint32_t>(ValueType::U8) || type > static_cast<uint32_t>(ValueType::F64)) throw bad_result(task, "value type");
-            out.type = static_cast<ValueType>(type);
-            out.dims.x = get<int64_t>(r);
-            out.dims.y = get<int64_t>(r);
-            out.dims.z = get<int64_t>(r);
-            try {
-                validate_dims(out.dims, "'" + task.file + "'");
-            } catch (const Error& e) {
-                throw bad_result(task, e.what());
-            }
-            for (double& s : out.spacing) s = get<double>(r);
-            for (double& o : out.origin) o = get<double>(r);
-            out.field_name = get_string(r, task);
-            out.units = get_string(r, task);
-            const uint64_t entries = get<uint64_t>(r);
-            if (entries > kMaxEntries) throw bad_result(task, std::to_string(entries) + " metadata entries");
-            for (uint64_t i = 0; i < entries; ++i) {
-                std::string k = get_string(r, task);
-                out.metadata[std::move(k)] = get_string(r, task);
-            }
+            out = receive_volume_header(r, task);
             const uint64_t bytes = get<uint64_t>(r);
             if (bytes != static_cast<uint64_t>(out.dims.count()) * value_size(out.type))
                 throw bad_result(task, "sample bytes do not match the dims");

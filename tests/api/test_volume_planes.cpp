@@ -6,6 +6,7 @@
 // is an error naming the container, and the output is not left behind.
 #include <gtest/gtest.h>
 
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -97,12 +98,21 @@ TEST(VolumePlanes, WritersFedPlanesWriteTheWholeVolumesBytes) {
     Volume v = make_sample_volume("multiscale", Dims{23, 31, 37}, ValueType::I16);
     v.metadata["patient"] = "anon";
     v.spacing = {0.5, 0.25, 2};
-    for (const char* ext : {"raw", "nrrd", "nhdr", "mha", "mhd"}) {
+    for (const char* ext : {"raw", "nrrd", "nhdr", "mha", "mhd", "h5"}) {
         SCOPED_TRACE(ext);
+        if (std::string(ext) == "h5" && !volume_format_built("h5")) continue;
         const std::string a = tmp(std::string("whole.") + ext), b = tmp(std::string("planes.") + ext);
-        write_volume(v, a);
-        auto planes = planes_of(v);
-        write_volume(*planes, b);
+        // HDF5: new files (an existing one is updated in place), written within
+        // one second (libhdf5 stamps the dataset's modification time).
+        for (int attempt = 0; attempt < 5; ++attempt) {
+            const std::time_t before = std::time(nullptr);
+            fs::remove(a);
+            fs::remove(b);
+            write_volume(v, a);
+            auto planes = planes_of(v);
+            write_volume(*planes, b);
+            if (std::time(nullptr) == before) break;
+        }
         EXPECT_EQ(volume_format_writes_planes(b), true);
         std::string sa = slurp(a), sb = slurp(b);
         // Detached headers name their own data file.
@@ -131,15 +141,14 @@ TEST(VolumePlanes, RawFilesAreReadByOffset) {
     EXPECT_TRUE(std::equal(got.begin(), got.end(), v.data.begin() + std::ptrdiff_t(5 * plane)));
     EXPECT_THROW(planes->read(20, 2, got.data()), Error);  // past the last plane
     // NRRD and MetaImage with one uncompressed data block, attached or
-    // detached, by offset too; compressed ones are read whole (no planes).
+    // detached, by offset too; compressed ones as a stream (test_nrrd_planes
+    // covers every layout).
     NrrdWriteOptions gz;
     gz.gzip = true;
     write_nrrd(v, tmp("gz.nrrd"), gz);
-    EXPECT_FALSE(open_volume_planes(tmp("gz.nrrd")));
     MetaImageWriteOptions packed;
     packed.compress = true;
     write_metaimage(v, tmp("z.mha"), packed);
-    EXPECT_FALSE(open_volume_planes(tmp("z.mha")));
     MetaImageWriteOptions plain;
     plain.compress = false;
     write_metaimage(v, tmp("p.mha"), plain);
@@ -147,7 +156,7 @@ TEST(VolumePlanes, RawFilesAreReadByOffset) {
     NrrdWriteOptions be;
     be.endian = Endian::Big;
     write_nrrd(v, tmp("be.nrrd"), be);
-    for (const char* name : {"p.mha", "p.mhd", "be.nrrd", "a.nhdr"}) {
+    for (const char* name : {"p.mha", "p.mhd", "be.nrrd", "a.nhdr", "gz.nrrd", "z.mha"}) {
         SCOPED_TRACE(name);
         if (std::string(name) == "a.nhdr") write_volume(v, tmp(name));
         auto p = open_volume_planes(tmp(name));

@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
+#include <memory>
 #include <fcntl.h>
 #include <optional>
 #include <set>
@@ -17,6 +19,7 @@
 
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/isolated_planes.hpp"
 #include "tetlod/core/isolated_volume.hpp"
 #include "tetlod/core/regular_file.hpp"
 #include "vdb_read_guard.hpp"
@@ -155,8 +158,19 @@ std::vector<std::pair<std::string, std::string>> list_vdb_grids_here(const std::
     return out;
 }
 
-// The read itself, in whichever process read_vdb chose.
-Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, uint64_t file_size) {
+// The grid a read takes and everything known before its samples: the choice
+// of grid, its transform, the dense extent (checked against the file's size)
+// and the header (geometry, names, metadata; dims of the extent, the type of
+// the staging volume). Shared by the whole read and the plane reader.
+struct GridSource {
+    openvdb::GridBase::Ptr grid;
+    std::string name;
+    std::string what;  // "'path'"
+    Extent ext;
+    Volume header;
+};
+
+GridSource open_vdb_grid(const std::string& path, const VolumeReadOptions& options, uint64_t file_size) {
     const std::string what = "'" + path + "'";
     auto f = open_file(path);
     openvdb::GridBase::Ptr grid;
@@ -253,6 +267,34 @@ Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, 
                                  what + " grid '" + name + "'",
                                  have_dims ? "metadata dims_xyz" : "the active voxels' bounding box");
 
+    GridSource src;
+    src.grid = grid;
+    src.name = name;
+    src.what = what;
+    src.ext = ext;
+    Volume& h = src.header;
+    h.dims = ext.dims;
+    openvdb::Vec3d o = xf.indexToWorld(ext.min);
+    h.spacing = options.spacing.value_or(spacing);
+    h.origin = options.origin.value_or(Vec3{o.x(), o.y(), o.z()});
+    h.field_name = name;
+    for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it) {
+        const std::string& k = it->first;
+        if (is_internal_meta(k) || is_structural_meta(k) || !it->second) continue;
+        h.metadata[k] = it->second->str();
+    }
+    if (auto u = (*grid)["units"]) h.units = u->str();
+    h.metadata[kGridTypeKey] = short_type(*grid);  // write_vdb writes this grid type again
+    return src;
+}
+
+// The read itself, in whichever process read_vdb chose.
+Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, uint64_t file_size) {
+    GridSource src = open_vdb_grid(path, options, file_size);
+    const openvdb::GridBase::Ptr& grid = src.grid;
+    const std::string& name = src.name;
+    const std::string& what = src.what;
+    const Extent& ext = src.ext;
     Volume vol;
     try {
         if (grid->isType<openvdb::FloatGrid>()) {
@@ -288,17 +330,11 @@ Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, 
         throw Error(ErrorCode::CorruptData, what + ": cannot read grid '" + name + "': " + e.what());
     }
 
-    openvdb::Vec3d o = xf.indexToWorld(ext.min);
-    vol.spacing = options.spacing.value_or(spacing);
-    vol.origin = options.origin.value_or(Vec3{o.x(), o.y(), o.z()});
-    vol.field_name = name;
-    for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it) {
-        const std::string& k = it->first;
-        if (is_internal_meta(k) || is_structural_meta(k) || !it->second) continue;
-        vol.metadata[k] = it->second->str();
-    }
-    if (auto u = (*grid)["units"]) vol.units = u->str();
-    vol.metadata[kGridTypeKey] = short_type(*grid);  // write_vdb writes this grid type again
+    vol.spacing = src.header.spacing;
+    vol.origin = src.header.origin;
+    vol.field_name = src.header.field_name;
+    vol.units = src.header.units;
+    vol.metadata = src.header.metadata;
     // An integer volume stored as float (OpenVDB has no 8/16-bit grids) gets its
     // type back when the file says what it was and every value converts exactly.
     for (const char* key : {"tetlod_value_type", "original_dtype"}) {
@@ -308,6 +344,175 @@ Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, 
         }
     }
     return vol;
+}
+
+// ---- plane by plane ----
+// The child keeps the grid (sparse) and fills the planes asked for from it, so
+// no dense copy of the volume exists on either side. The samples must be the
+// whole read's: the same background/active rule as fill_dense and the same
+// final type, which the whole read decides by trying every dense value
+// (try_narrow); here that set of values is visited sparsely: the background
+// when a voxel of the extent is inactive, and every active value inside it.
+
+double as_double(bool v) { return v ? 1.0 : 0.0; }
+template <class V>
+double as_double(V v) {
+    return static_cast<double>(v);
+}
+
+// try_narrow's rule for one value.
+bool value_fits(ValueType target, double v) {
+    return dispatch_value_type(target, [&](auto t) {
+        using T = decltype(t);
+        if (!std::isfinite(v) && !std::is_floating_point_v<T>) return false;
+        if constexpr (!std::is_floating_point_v<T>) {
+            if (v < static_cast<double>(std::numeric_limits<T>::min()) ||
+                v > static_cast<double>(std::numeric_limits<T>::max()))
+                return false;
+        }
+        const T c = static_cast<T>(v);
+        return static_cast<double>(c) == v || (std::isnan(v) && std::isnan(static_cast<double>(c)));
+    });
+}
+
+template <class GridT>
+class GridValues {
+public:
+    GridValues(const GridT& grid, const Extent& ext) : grid_(grid), box_(box_of(ext)) {
+        uint64_t active = 0;
+        for_active([&](const openvdb::CoordBBox& b, double) { active += b.volume(); });
+        background_shown_ = active < uint64_t(ext.dims.count());
+    }
+    /// Calls f(value) for every value of the dense volume (repeats allowed).
+    template <class F>
+    bool all(F&& f) const {
+        if (background_shown_ && !f(as_double(grid_.background()))) return false;
+        bool ok = true;
+        for_active([&](const openvdb::CoordBBox&, double v) { ok = ok && f(v); });
+        return ok;
+    }
+
+private:
+    static openvdb::CoordBBox box_of(const Extent& ext) {
+        return openvdb::CoordBBox(ext.min, ext.min + openvdb::Coord(static_cast<int32_t>(ext.dims.x - 1),
+                                                                    static_cast<int32_t>(ext.dims.y - 1),
+                                                                    static_cast<int32_t>(ext.dims.z - 1)));
+    }
+    template <class F>
+    void for_active(F&& f) const {
+        for (auto it = grid_.cbeginValueOn(); it; ++it) {
+            openvdb::CoordBBox b;
+            it.getBoundingBox(b);  // one voxel, or a whole active tile
+            b.intersect(box_);
+            if (!b.empty()) f(b, as_double(*it));
+        }
+    }
+    const GridT& grid_;
+    openvdb::CoordBBox box_;
+    bool background_shown_ = false;
+};
+
+// The type read_vdb_here ends with, decided without the dense volume.
+template <class GridT>
+ValueType planes_type(const GridT& grid, const GridSource& src) {
+    using V = typename GridT::ValueType;
+    const GridValues<GridT> values(grid, src.ext);
+    ValueType type = std::is_same_v<V, bool>      ? ValueType::U8
+                     : std::is_same_v<V, float>   ? ValueType::F32
+                     : std::is_same_v<V, int32_t> ? ValueType::I32
+                                                  : ValueType::F64;
+    auto fits = [&](ValueType target) {
+        return target == type || values.all([&](double v) { return value_fits(target, v); });
+    };
+    if constexpr (std::is_same_v<V, int64_t>) {
+        // fill_dense's staging check: the background is always stored.
+        auto staged = [&](double v) { return !(v < -std::ldexp(1.0, 53) || v > std::ldexp(1.0, 53)); };
+        if (!staged(as_double(grid.background())) || !values.all(staged))
+            throw Error(ErrorCode::UnsupportedFeature,
+                        src.what + ": Int64 grid '" + src.name + "' holds a value that does not fit a 32-bit integer");
+        std::optional<ValueType> declared;
+        if (auto t = grid["tetlod_value_type"]) declared = parse_value_type(t->str());
+        if (declared && !is_float(*declared) && fits(*declared)) type = *declared;
+        else if (fits(ValueType::I32)) type = ValueType::I32;
+        else if (fits(ValueType::U32)) type = ValueType::U32;
+        else
+            throw Error(ErrorCode::UnsupportedFeature,
+                        src.what + ": Int64 grid '" + src.name + "' holds values that do not fit a 32-bit integer");
+    }
+    for (const char* key : {"tetlod_value_type", "original_dtype"}) {
+        if (auto t = grid[key]) {
+            if (auto vt = parse_value_type(t->str()); vt && fits(*vt)) type = *vt;
+            break;
+        }
+    }
+    return type;
+}
+
+template <class GridT>
+class VdbPlanes final : public VolumePlanes {
+public:
+    VdbPlanes(GridSource src, typename GridT::ConstPtr grid, ValueType type)
+        : src_(std::move(src)), grid_(std::move(grid)), acc_(grid_->getConstAccessor()) {
+        src_.header.type = type;
+    }
+
+    const Volume& header() const override { return src_.header; }
+
+    void read(int64_t z0, int64_t count, std::byte* dst) override {
+        const Dims d = src_.header.dims;
+        if (z0 < 0 || count < 0 || count > d.z || z0 > d.z - count)
+            throw Error(ErrorCode::InvalidArgument, src_.what + ": planes " + std::to_string(z0) + ".." +
+                                                        std::to_string(z0 + count - 1) + " outside the volume");
+        using V = typename GridT::ValueType;
+        const V bg = grid_->background();
+        const openvdb::Coord m = src_.ext.min;
+        dispatch_value_type(src_.header.type, [&](auto t) {
+            using T = decltype(t);
+            for (int64_t z = z0; z < z0 + count; ++z)
+                for (int64_t y = 0; y < d.y; ++y)
+                    for (int64_t x = 0; x < d.x; ++x) {
+                        V v;
+                        const openvdb::Coord c(m.x() + int32_t(x), m.y() + int32_t(y), m.z() + int32_t(z));
+                        if (!acc_.probeValue(c, v)) v = bg;
+                        T out;
+                        if constexpr (std::is_same_v<T, V>) out = v;  // the staged type itself: bit for bit
+                        else out = static_cast<T>(as_double(v));
+                        std::memcpy(dst, &out, sizeof out);
+                        dst += sizeof out;
+                    }
+        });
+    }
+
+private:
+    GridSource src_;
+    typename GridT::ConstPtr grid_;
+    typename GridT::ConstAccessor acc_;
+};
+
+template <class GridT>
+std::unique_ptr<VolumePlanes> make_vdb_planes(GridSource& src) {
+    auto grid = openvdb::gridConstPtrCast<GridT>(src.grid);
+    const ValueType type = planes_type(*grid, src);
+    return std::make_unique<VdbPlanes<GridT>>(std::move(src), std::move(grid), type);
+}
+
+std::unique_ptr<VolumePlanes> open_vdb_planes_here(const std::string& path, const VolumeReadOptions& options,
+                                                   uint64_t file_size) {
+    GridSource src = open_vdb_grid(path, options, file_size);
+    const std::string what = src.what, name = src.name;
+    try {
+        const openvdb::GridBase& g = *src.grid;
+        if (g.isType<openvdb::FloatGrid>()) return make_vdb_planes<openvdb::FloatGrid>(src);
+        if (g.isType<openvdb::DoubleGrid>()) return make_vdb_planes<openvdb::DoubleGrid>(src);
+        if (g.isType<openvdb::Int32Grid>()) return make_vdb_planes<openvdb::Int32Grid>(src);
+        if (g.isType<openvdb::Int64Grid>()) return make_vdb_planes<openvdb::Int64Grid>(src);
+        if (g.isType<openvdb::BoolGrid>()) return make_vdb_planes<openvdb::BoolGrid>(src);
+        throw Error(ErrorCode::UnsupportedFeature, what + ": grid '" + name + "' has an unsupported type " + g.type());
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw Error(ErrorCode::CorruptData, what + ": cannot read grid '" + name + "': " + e.what());
+    }
 }
 
 }  // namespace
@@ -331,65 +536,94 @@ Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
     return read_volume_isolated(task, [&] { return read_vdb_here(path, options, size); });
 }
 
+std::unique_ptr<VolumePlanes> open_vdb_planes(const std::string& path, const VolumeReadOptions& options) {
+    const uint64_t size = check_before_library(path);
+    const auto layout = vdb_guard::check_vdb_layout(path, size);
+    vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
+    if (!options.isolation.enabled) return open_vdb_planes_here(path, options, size);
+    // The child loads the grid under the whole read's limits, then answers plane
+    // requests from it; reading a plane allocates nothing.
+    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size),
+                      isolation_memory_limit(options.isolation, size)};
+    return open_planes_isolated(task, options.isolation, [&] {
+        return PlanesInChild{open_vdb_planes_here(path, options, size), uint64_t{16} << 20};
+    });
+}
+
 namespace {
 
+// The writer reads its samples plane by plane (a volume in memory through
+// planes_of), so a streaming decode holds the grid being built and one plane,
+// never a dense copy of the volume besides the grid.
+
 template <class GridT, class Src>
-typename GridT::Ptr make_grid(const Volume& vol) {
+typename GridT::Ptr make_grid(VolumePlanes& planes) {
     using V = typename GridT::ValueType;
+    const Dims d = planes.header().dims;
     typename GridT::Ptr grid = GridT::create(V(0));
     auto acc = grid->getAccessor();
-    const Src* src = vol.as<Src>();
+    std::vector<Src> plane(static_cast<std::size_t>(d.x * d.y));
     const V bg = V(0);
-    for (int64_t z = 0; z < vol.dims.z; ++z)
-        for (int64_t y = 0; y < vol.dims.y; ++y)
-            for (int64_t x = 0; x < vol.dims.x; ++x) {
-                const V v = static_cast<V>(src[vol.dims.index(x, y, z)]);
+    for (int64_t z = 0; z < d.z; ++z) {
+        planes.read(z, 1, reinterpret_cast<std::byte*>(plane.data()));
+        for (int64_t y = 0; y < d.y; ++y)
+            for (int64_t x = 0; x < d.x; ++x) {
+                const V v = static_cast<V>(plane[static_cast<std::size_t>(y * d.x + x)]);
                 // Bitwise, so -0.0 and NaN stay active and come back exactly.
                 if (std::memcmp(&v, &bg, sizeof(V)) == 0) continue;
                 acc.setValue(openvdb::Coord(static_cast<int32_t>(x), static_cast<int32_t>(y), static_cast<int32_t>(z)), v);
             }
+    }
     return grid;
 }
 
 template <class GridT>
-openvdb::GridBase::Ptr make_grid_of(const Volume& vol) {
-    switch (vol.type) {
-        case ValueType::F32: return make_grid<GridT, float>(vol);
-        case ValueType::F64: return make_grid<GridT, double>(vol);
-        case ValueType::U8: return make_grid<GridT, uint8_t>(vol);
-        case ValueType::I8: return make_grid<GridT, int8_t>(vol);
-        case ValueType::U16: return make_grid<GridT, uint16_t>(vol);
-        case ValueType::I16: return make_grid<GridT, int16_t>(vol);
-        case ValueType::I32: return make_grid<GridT, int32_t>(vol);
-        case ValueType::U32: return make_grid<GridT, uint32_t>(vol);
+openvdb::GridBase::Ptr make_grid_of(VolumePlanes& planes) {
+    switch (planes.header().type) {
+        case ValueType::F32: return make_grid<GridT, float>(planes);
+        case ValueType::F64: return make_grid<GridT, double>(planes);
+        case ValueType::U8: return make_grid<GridT, uint8_t>(planes);
+        case ValueType::I8: return make_grid<GridT, int8_t>(planes);
+        case ValueType::U16: return make_grid<GridT, uint16_t>(planes);
+        case ValueType::I16: return make_grid<GridT, int16_t>(planes);
+        case ValueType::I32: return make_grid<GridT, int32_t>(planes);
+        case ValueType::U32: return make_grid<GridT, uint32_t>(planes);
     }
     return nullptr;
 }
 
-bool all_values_within(const Volume& vol, double lo, double hi) {
-    for (int64_t i = 0; i < vol.count(); ++i) {
-        const double v = vol.value(i);
-        if (!(v >= lo && v <= hi)) return false;
-    }
-    return true;
+// A pass over the planes (read once more when the grid is built).
+bool all_values_within(VolumePlanes& planes, double lo, double hi) {
+    const Volume& h = planes.header();
+    return dispatch_value_type(h.type, [&](auto t) {
+        using T = decltype(t);
+        std::vector<T> plane(static_cast<std::size_t>(h.dims.x * h.dims.y));
+        for (int64_t z = 0; z < h.dims.z; ++z) {
+            planes.read(z, 1, reinterpret_cast<std::byte*>(plane.data()));
+            for (const T v : plane)
+                if (!(static_cast<double>(v) >= lo && static_cast<double>(v) <= hi)) return false;
+        }
+        return true;
+    });
 }
 
 // The grid type to write: the one the volume was read from (metadata
 // vdb:grid_type) when it holds every value exactly, else f32 -> float, f64 ->
 // double, u32 -> int64, other integers -> int32.
-std::string grid_type_for(const Volume& vol) {
+std::string grid_type_for(VolumePlanes& planes) {
+    const Volume& vol = planes.header();
     const ValueType t = vol.type;
     const bool small_int = t == ValueType::U8 || t == ValueType::I8 || t == ValueType::U16 || t == ValueType::I16;
     auto it = vol.metadata.find(kGridTypeKey);
     const std::string hint = it == vol.metadata.end() ? "" : it->second;
     if (hint == "float" &&
-        (t == ValueType::F32 || small_int || (!is_float(t) && all_values_within(vol, -16777216.0, 16777216.0))))
+        (t == ValueType::F32 || small_int || (!is_float(t) && all_values_within(planes, -16777216.0, 16777216.0))))
         return hint;
     if (hint == "double" && (t == ValueType::F64 || t == ValueType::F32 || !is_float(t))) return hint;
-    if (hint == "int32" && !is_float(t) && (t != ValueType::U32 || all_values_within(vol, 0, INT32_MAX)))
+    if (hint == "int32" && !is_float(t) && (t != ValueType::U32 || all_values_within(planes, 0, INT32_MAX)))
         return hint;
     if (hint == "int64" && !is_float(t)) return hint;
-    if (hint == "bool" && !is_float(t) && all_values_within(vol, 0, 1)) return hint;
+    if (hint == "bool" && !is_float(t) && all_values_within(planes, 0, 1)) return hint;
     if (t == ValueType::F32) return "float";
     if (t == ValueType::F64) return "double";
     return t == ValueType::U32 ? "int64" : "int32";
@@ -407,10 +641,16 @@ std::vector<std::string> vdb_unstorable_keys(const Volume& vol) {
 }
 
 void write_vdb(const Volume& vol, const std::string& path) {
+    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
+        throw Error(ErrorCode::InvalidArgument, "'" + path + "': volume data size does not match its dims");
+    auto planes = planes_of(vol);
+    write_vdb(*planes, path);
+}
+
+void write_vdb(VolumePlanes& planes, const std::string& path) {
+    const Volume& vol = planes.header();
     const std::string what = "'" + path + "'";
     validate_dims(vol.dims, what);
-    if (vol.data.size() != static_cast<std::size_t>(vol.dims.count()) * value_size(vol.type))
-        throw Error(ErrorCode::InvalidArgument, what + ": volume data size does not match its dims");
     if (vol.dims.x > INT32_MAX || vol.dims.y > INT32_MAX || vol.dims.z > INT32_MAX)
         throw Error(ErrorCode::TooLarge, what + ": dims exceed OpenVDB coordinates");
     for (int a = 0; a < 3; ++a)
@@ -418,13 +658,13 @@ void write_vdb(const Volume& vol, const std::string& path) {
             throw Error(ErrorCode::InvalidArgument, what + ": spacing must be positive for an OpenVDB transform");
     openvdb::initialize();
 
-    const std::string grid_type = grid_type_for(vol);
+    const std::string grid_type = grid_type_for(planes);
     openvdb::GridBase::Ptr grid;
-    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(vol);
-    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(vol);
-    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(vol);
-    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(vol);
-    else grid = make_grid_of<openvdb::Int32Grid>(vol);
+    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(planes);
+    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(planes);
+    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(planes);
+    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(planes);
+    else grid = make_grid_of<openvdb::Int32Grid>(planes);
     grid->setName(vol.field_name.empty() ? "density" : vol.field_name);
     const Vec3& s = vol.spacing;
     const Vec3& o = vol.origin;

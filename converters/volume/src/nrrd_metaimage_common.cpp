@@ -1,5 +1,7 @@
 #include "nrrd_metaimage_common.hpp"
 
+#include "piece_planes.hpp"
+
 #include "tetlod/converters/raw_volume.hpp"
 
 #include <zlib.h>
@@ -21,16 +23,6 @@
 #include "tetlod/core/output_policy.hpp"
 
 namespace tetlod::detail {
-
-namespace {
-
-constexpr std::size_t kIoChunk = std::size_t{4} << 20;   // bytes read or written per call
-constexpr std::size_t kZChunk = std::size_t{256} << 10;  // compressed bytes per call
-
-struct FileCloser {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
 
 Endian host_endian() { return std::endian::native == std::endian::little ? Endian::Little : Endian::Big; }
 
@@ -77,8 +69,8 @@ uint64_t skip_lines(std::FILE* f, int64_t lines, uint64_t pos, const std::string
     return pos;
 }
 
-void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& piece,
-                    std::byte* out, uint64_t bytes, const std::string& what) {
+uint64_t raw_piece_start(uint64_t pos, uint64_t size, const DataPiece& piece, uint64_t bytes,
+                         const std::string& what) {
     uint64_t start = pos;
     if (piece.byte_skip == -1) {
         if (size < bytes || size - bytes < pos)
@@ -94,6 +86,14 @@ void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& 
                     what + ": data file '" + piece.path + "' is truncated: " +
                         std::to_string(start > size ? 0 : size - start) + " bytes of data after offset " +
                         std::to_string(start) + ", but the header declares " + std::to_string(bytes));
+    return start;
+}
+
+namespace {
+
+void read_raw_piece(std::FILE* f, uint64_t pos, uint64_t size, const DataPiece& piece,
+                    std::byte* out, uint64_t bytes, const std::string& what) {
+    const uint64_t start = raw_piece_start(pos, size, piece, bytes, what);
     seek_to(f, start, piece.path);
     for (uint64_t done = 0; done < bytes;) {
         std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(kIoChunk, bytes - done));
@@ -223,10 +223,11 @@ void check_piece_sizes(const std::vector<DataPiece>& pieces, Compression compres
 
 std::unique_ptr<VolumePlanes> planes_of_pieces(Volume header, const std::vector<DataPiece>& pieces,
                                                Compression compression, Endian file_endian, const std::string& what) {
-    if (compression != Compression::None || pieces.size() != 1 || pieces[0].line_skip != 0) return nullptr;
     validate_dims(header.dims, what);
     const uint64_t total = static_cast<uint64_t>(header.dims.count()) * value_size(header.type);
     check_piece_sizes(pieces, compression, total, what);
+    if (compression != Compression::None || pieces.size() != 1 || pieces[0].line_skip != 0)
+        return open_piece_planes(std::move(header), pieces, compression, file_endian, what);
     const DataPiece& p = pieces[0];
     // byte skip -1: the samples are the file's last bytes.
     const uint64_t offset = p.byte_skip >= 0 ? p.file_offset + uint64_t(p.byte_skip)

@@ -2,7 +2,9 @@
 // Private helpers shared by the NRRD and MetaImage converters: moving samples
 // between a volume and one or more data files, raw or zlib/gzip-compressed, in
 // either byte order, through bounded buffers. Not a public header.
+#include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -48,9 +50,10 @@ inline constexpr uint64_t kMaxDeflateRatio = 1032;
 Volume read_samples(const Dims& dims, ValueType type, const std::vector<DataPiece>& pieces,
                     Compression compression, Endian file_endian, const std::string& what);
 
-/// The planes of `header` (dims, type, geometry, metadata) read by offset
-/// when its samples are one uncompressed piece without line skip; null for
-/// any other layout (read whole with read_samples). The sizes are checked first.
+/// The planes of `header` (dims, type, geometry, metadata): one uncompressed
+/// piece without line skip read by offset (open_raw_planes_at), any other
+/// layout by open_piece_planes (several files, line skip, compressed streams).
+/// The sizes are checked first.
 std::unique_ptr<VolumePlanes> planes_of_pieces(Volume header, const std::vector<DataPiece>& pieces,
                                                Compression compression, Endian file_endian, const std::string& what);
 /// Throws Truncated/SizeMismatch when the pieces cannot hold `total_bytes` of
@@ -67,6 +70,29 @@ uint64_t write_samples(AtomicFile& out, const Volume& volume, Endian endian, Com
 /// The same from planes read one after the other (memory: one plane and the buffers).
 uint64_t write_samples(AtomicFile& out, VolumePlanes& planes, Endian endian, Compression compression,
                        bool gzip_wrapper);
+
+// Data file access, shared by the whole reader and the plane reader.
+inline constexpr std::size_t kIoChunk = std::size_t{4} << 20;   // bytes read or written per call
+inline constexpr std::size_t kZChunk = std::size_t{256} << 10;  // compressed bytes per call
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+Endian host_endian();
+void swap_bytes(std::byte* p, std::size_t bytes, std::size_t width);
+/// Size of a data file (a regular file, else IoError naming `what`).
+uint64_t file_size_of(const std::string& path, const std::string& what);
+/// Opens a data file for reading (regular files only) and notes it as an input of this run.
+FilePtr open_read(const std::string& path, const std::string& what);
+void seek_to(std::FILE* f, uint64_t pos, const std::string& path);
+/// Skips `lines` newline-terminated lines from `pos`; returns the new position
+/// (Truncated when the file ends first).
+uint64_t skip_lines(std::FILE* f, int64_t lines, uint64_t pos, const std::string& path, const std::string& what);
+/// Where `bytes` of raw samples of `piece` start, `pos` being the position after
+/// its line skip and `size` the file's size (byte skip -1: the last bytes).
+/// Truncated naming the file when it cannot hold them.
+uint64_t raw_piece_start(uint64_t pos, uint64_t size, const DataPiece& piece, uint64_t bytes,
+                         const std::string& what);
 
 // Small text helpers.
 std::string trim(std::string_view s);

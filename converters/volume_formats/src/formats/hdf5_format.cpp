@@ -18,8 +18,14 @@ VolumeFormat hdf5_volume_format() {
     f.datasets = true;
 #if TETLOD_HAVE_HDF5
     f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_hdf5(l.file, l.dataset, o); };
+    f.open_planes = [](const VolumeLocation& l, const VolumeReadOptions& o) {
+        return open_hdf5_planes(l.file, l.dataset, o);
+    };
     f.write = [](const Volume& v, const VolumeLocation& l) {
         write_hdf5(v, l.file, l.dataset.empty() ? "/volume" : l.dataset);
+    };
+    f.write_planes = [](VolumePlanes& planes, const VolumeLocation& l) {
+        write_hdf5(planes, l.file, l.dataset.empty() ? "/volume" : l.dataset);
     };
     f.lost_metadata = hdf5_unstorable_keys;
     f.check_output = [](const VolumeLocation& l) { check_hdf5_output(l.file, l.dataset.empty() ? "/volume" : l.dataset); };

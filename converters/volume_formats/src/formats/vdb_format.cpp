@@ -16,7 +16,9 @@ VolumeFormat vdb_volume_format() {
     f.not_built_hint = "OpenVDB (configure with -DTETLOD_WITH_OPENVDB=ON)";
 #if TETLOD_HAVE_OPENVDB
     f.read = [](const VolumeLocation& l, const VolumeReadOptions& o) { return read_vdb(l.file, o); };
+    f.open_planes = [](const VolumeLocation& l, const VolumeReadOptions& o) { return open_vdb_planes(l.file, o); };
     f.write = [](const Volume& v, const VolumeLocation& l) { write_vdb(v, l.file); };
+    f.write_planes = [](VolumePlanes& planes, const VolumeLocation& l) { write_vdb(planes, l.file); };
     f.lost_metadata = vdb_unstorable_keys;
 #else
     f.built = false;

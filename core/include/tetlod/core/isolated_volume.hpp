@@ -17,6 +17,12 @@ namespace tetlod {
 /// the errors).
 Volume read_volume_isolated(const IsolatedTask& task, const std::function<Volume()>& read);
 
+/// The header of a volume (all but its samples), as read_volume_isolated sends it.
+void send_volume_header(IsolatedWriter& w, const Volume& v);
+/// Reads what send_volume_header sent, checking it (dims valid, strings and
+/// entries bounded) before allocating; CorruptData naming task.file otherwise.
+Volume receive_volume_header(IsolatedReader& r, const IsolatedTask& task);
+
 /// Same for a list of string pairs (e.g. grid names and types).
 std::vector<std::pair<std::string, std::string>> read_pairs_isolated(
     const IsolatedTask& task, const std::function<std::vector<std::pair<std::string, std::string>>()>& read);

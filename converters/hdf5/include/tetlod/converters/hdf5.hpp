@@ -1,6 +1,6 @@
 #pragma once
 // HDF5 volumes through the HDF5 C library: one dataset of a file, addressed as
-// FILE.h5:/path/to/dataset. Only hdf5_volume.cpp and hdf5_read_guard.cpp include hdf5.h.
+// FILE.h5:/path/to/dataset. Only tetlod_hdf5_io's sources include hdf5.h.
 //
 // Read: a dataset of rank 1..3, any integer (8/16/32-bit; 64-bit integers when
 // every value fits int32 are refused for simplicity: ErrorCode::UnsupportedFeature)
@@ -24,16 +24,29 @@
 // chunk bytes (+1 MiB) before anything is allocated.
 // Large datasets are read in bounded slabs. Errors (missing file or dataset,
 // wrong type, truncated file) are tetlod::Error naming the file and dataset.
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
 /// `dataset` empty: the file's only dataset (several: InvalidArgument listing them).
 Volume read_hdf5(const std::string& file, const std::string& dataset, const VolumeReadOptions& options = {});
+
+/// The same dataset read plane by plane, each read one hyperslab (out-of-core
+/// conversion): the header and samples of read_hdf5, in memory bounded by the
+/// planes asked for plus a chunk cache holding two layers of chunks across a
+/// plane (at most 1 GiB). Same checks as read_hdf5; with isolation on, libhdf5
+/// runs in a persistent child process that keeps the file open and answers each
+/// read (open_planes_isolated in core/isolated_planes.hpp), each read with its
+/// own time limit and the child's memory capped by what a read needs. Reads are
+/// not thread-safe (one at a time).
+std::unique_ptr<VolumePlanes> open_hdf5_planes(const std::string& file, const std::string& dataset,
+                                               const VolumeReadOptions& options = {});
 
 struct Hdf5WriteOptions {
     Endian endian = Endian::Little;
@@ -51,6 +64,16 @@ struct Hdf5WriteOptions {
 /// that path is never replaced). Atomic: the update goes to a temporary copy in
 /// the same directory, renamed over `file` (a symlink's target) at the end.
 void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
+                const Hdf5WriteOptions& options = {});
+
+/// The same from planes read one batch after the other (streaming decode): the
+/// dataset is created, then written a batch of planes at a time by hyperslab
+/// (16 MiB, or one plane when larger), with the attributes and guarantees of
+/// write_hdf5 on the whole volume (other datasets kept, atomic) and, contiguous
+/// (deflate_level 0, the default), the same bytes; deflated chunks hold the same
+/// data but the library may place them in another order. An error reading the
+/// planes leaves nothing at the target.
+void write_hdf5(VolumePlanes& planes, const std::string& file, const std::string& dataset,
                 const Hdf5WriteOptions& options = {});
 
 /// What write_hdf5(volume, file, dataset) would refuse under the installed

@@ -28,15 +28,26 @@
 // (dims_xyz or the active bounding box) may need at most 4096 bytes per file
 // byte + 64 MiB (ErrorCode::TooLarge); dims_xyz that is not three positive
 // integers is ErrorCode::CorruptData.
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tetlod/converters/volume_read_options.hpp"
 #include "tetlod/core/volume.hpp"
+#include "tetlod/core/volume_planes.hpp"
 
 namespace tetlod {
 
 Volume read_vdb(const std::string& path, const VolumeReadOptions& options = {});
+
+/// The same grid plane by plane (out-of-core conversion): the header and
+/// samples of read_vdb, without a dense copy of the volume on either side. With
+/// isolation on, OpenVDB loads the grid in a persistent child process (same
+/// checks and limits as read_vdb) that fills each plane request from the sparse
+/// grid; with isolation off, in this process. The grid itself stays in memory
+/// (OpenVDB reads a grid whole), so this bounds the dense samples, not the grid.
+/// Reads are not thread-safe (one at a time).
+std::unique_ptr<VolumePlanes> open_vdb_planes(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Names and types ("float", "int32", ...) of every grid in the file.
 std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path);
@@ -53,6 +64,13 @@ std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::strin
 /// Transform: scale = spacing, translation = origin. Metadata as string metadata.
 /// Written to a temporary file in the same directory, then renamed over `path`.
 void write_vdb(const Volume& volume, const std::string& path);
+
+/// The same from planes read one after the other (streaming decode): the grid
+/// is built plane by plane (the planes are read once more first when the grid
+/// type depends on every value: a u32 volume read from an int32 grid, say), so
+/// memory holds the grid and one plane, not a dense copy besides. The same
+/// grid, metadata and transform as write_vdb on the whole volume.
+void write_vdb(VolumePlanes& planes, const std::string& path);
 
 /// The metadata keys write_vdb leaves out, in key order.
 std::vector<std::string> vdb_unstorable_keys(const Volume& volume);

@@ -1,0 +1,195 @@
+// OpenVDB plane by plane: open_vdb_planes gives read_vdb's header, type and
+// samples for every grid type, sparse grids (background where inactive, active
+// tiles), the extent from dims_xyz or the active bounding box, and the type
+// narrowing the whole read does (Int64 to 32-bit, "original_dtype"), read in
+// forward, backward and shuffled order, isolated or not; a truncated file and
+// a missing grid are clean errors naming the file.
+#include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+
+#include "format_test_util.hpp"
+#include "tetlod/converters/vdb.hpp"
+
+using namespace tetlod;
+using namespace tetlod::test;
+
+namespace {
+
+void write_grid(const std::string& path, openvdb::GridBase::Ptr g) {
+    openvdb::initialize();
+    g->setName("g");
+    openvdb::GridPtrVec grids{g};
+    openvdb::io::File(path).write(grids);
+}
+
+// A sparse grid: a diagonal band of active voxels with values v(x, y, z), an
+// active 8^3 tile, inactive voxels holding non-background values (which must
+// read as the background), background `bg`.
+template <class GridT>
+openvdb::GridBase::Ptr sparse(typename GridT::ValueType bg,
+                              const std::function<typename GridT::ValueType(int, int, int)>& v,
+                              const char* original_dtype = nullptr, bool with_dims = true) {
+    auto g = GridT::create(bg);
+    auto acc = g->getAccessor();
+    for (int z = 0; z < 20; ++z)
+        for (int y = 0; y < 17; ++y)
+            for (int x = 0; x < 23; ++x)
+                if ((x + y + z) % 3 == 0)
+                    acc.setValue(openvdb::Coord(x, y, z), v(x, y, z));
+                else if ((x * y + z) % 7 == 0)
+                    acc.setValueOff(openvdb::Coord(x, y, z), v(x, y, z));
+    g->tree().addTile(1, openvdb::Coord(8, 8, 8), v(1, 2, 3), true);
+    if (with_dims) g->insertMeta("dims_xyz", openvdb::Vec3IMetadata(openvdb::Vec3i(23, 19, 21)));
+    if (original_dtype) g->insertMeta("original_dtype", openvdb::StringMetadata(original_dtype));
+    return g;
+}
+
+void check(const std::string& path, ValueType expected) {
+    const Volume whole = read_vdb(path);
+    EXPECT_EQ(whole.type, expected);
+    for (bool isolated : {true, false}) {
+        SCOPED_TRACE(isolated ? "isolated" : "in process");
+        VolumeReadOptions o;
+        o.isolation.enabled = isolated;
+        auto planes = open_vdb_planes(path, o);
+        const Volume& h = planes->header();
+        ASSERT_EQ(h.dims, whole.dims);
+        EXPECT_EQ(h.type, whole.type);
+        EXPECT_EQ(h.spacing, whole.spacing);
+        EXPECT_EQ(h.origin, whole.origin);
+        EXPECT_EQ(h.field_name, whole.field_name);
+        EXPECT_EQ(h.metadata, whole.metadata);
+        const std::size_t plane = std::size_t(h.dims.x * h.dims.y) * value_size(h.type);
+        std::vector<int64_t> order(static_cast<std::size_t>(h.dims.z));
+        std::iota(order.begin(), order.end(), 0);
+        for (int how : {0, 1, 2}) {
+            if (how == 1) std::reverse(order.begin(), order.end());
+            if (how == 2) std::shuffle(order.begin(), order.end(), std::mt19937(9));
+            std::vector<std::byte> got(whole.data.size());
+            for (int64_t z : order) planes->read(z, 1, got.data() + std::size_t(z) * plane);
+            EXPECT_TRUE(got == std::vector<std::byte>(whole.data.begin(), whole.data.end()))
+                << "order " << how;
+        }
+        std::vector<std::byte> all(whole.data.size());
+        planes->read(0, h.dims.z, all.data());
+        EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
+        EXPECT_THROW(planes->read(h.dims.z, 1, all.data()), Error);
+    }
+}
+
+}  // namespace
+
+TEST(VdbPlanes, EveryGridTypeSparseGridsAndNarrowingEqualTheWholeRead) {
+    const std::string dir = tmp_dir("vdb_planes");
+    struct Case {
+        const char* name;
+        openvdb::GridBase::Ptr grid;
+        ValueType expected;
+    };
+    using openvdb::BoolGrid, openvdb::DoubleGrid, openvdb::FloatGrid, openvdb::Int32Grid,
+        openvdb::Int64Grid;
+    const Case cases[] = {
+        {"f",
+         sparse<FloatGrid>(-0.5f, [](int x, int y, int z) { return float(x * 0.25 - y + z * 3); }),
+         ValueType::F32},
+        {"f_nan",
+         sparse<FloatGrid>(std::numeric_limits<float>::quiet_NaN(),
+                           [](int x, int, int) { return -0.0f * float(x); }),
+         ValueType::F32},
+        {"f_u8",
+         sparse<FloatGrid>(
+             0.f, [](int x, int y, int) { return float((x + y) % 200); }, "uint8"),
+         ValueType::U8},
+        {"f_u8_no",
+         sparse<FloatGrid>(
+             0.f, [](int x, int, int) { return float(x) + 0.5f; }, "uint8"),
+         ValueType::F32},  // not exact: stays float
+        {"d", sparse<DoubleGrid>(7.0, [](int x, int y, int z) { return x / 3.0 + y - z; }),
+         ValueType::F64},
+        {"i32", sparse<Int32Grid>(-5, [](int x, int y, int z) { return x * 1000 - y * 77 + z; }),
+         ValueType::I32},
+        {"i64",
+         sparse<Int64Grid>(3, [](int x, int y, int z) { return int64_t(x) * 100000 - y - z; }),
+         ValueType::I32},
+        {"i64_u32", sparse<Int64Grid>(0, [](int x, int, int) { return int64_t(4000000000) + x; }),
+         ValueType::U32},
+        {"b", sparse<BoolGrid>(false, [](int x, int, int) { return x % 2 == 0; }), ValueType::U8},
+        {"bbox",
+         sparse<FloatGrid>(
+             1.f, [](int x, int, int) { return float(x); }, nullptr, false),
+         ValueType::F32},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.name);
+        const std::string path = dir + "/" + c.name + ".vdb";
+        write_grid(path, c.grid);
+        check(path, c.expected);
+    }
+    // Written by tetlod (u16 in a FloatGrid with tetlod_value_type; zeros inactive).
+    Volume v = make_volume(ValueType::U16, {9, 8, 7});
+    write_vdb(v, dir + "/w.vdb");
+    check(dir + "/w.vdb", ValueType::U16);
+}
+
+TEST(VdbPlanes, BadFilesAreCleanErrors) {
+    const std::string dir = tmp_dir("vdb_planes_bad");
+    write_vdb(make_volume(ValueType::F32, {30, 20, 10}), dir + "/v.vdb");
+    const std::string bytes = slurp(dir + "/v.vdb");
+    spit(dir + "/t.vdb", bytes.substr(0, bytes.size() * 2 / 3));
+    for (bool isolated : {true, false}) {
+        VolumeReadOptions o;
+        o.isolation.enabled = isolated;
+        try {
+            open_vdb_planes(dir + "/t.vdb", o);
+            ADD_FAILURE() << "a truncated file was opened";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("t.vdb"), std::string::npos) << e.what();
+        }
+    }
+    VolumeReadOptions o;
+    o.grid = "nope";
+    expect_error([&] { open_vdb_planes(dir + "/v.vdb", o); }, ErrorCode::NotFound,
+                 {"v.vdb", "nope"});
+}
+
+TEST(VdbPlanes, WriterFedPlanesWritesTheWholeWritersGrid) {
+    const std::string dir = tmp_dir("vdb_planes_write");
+    for (ValueType t : kAllTypes) {
+        SCOPED_TRACE(value_type_name(t));
+        Volume v = make_volume(t, {9, 8, 7});
+        v.metadata["who"] = "test";
+        write_vdb(v, dir + "/whole.vdb");
+        auto planes = planes_of(v);
+        write_vdb(*planes, dir + "/planes.vdb");
+        const Volume a = read_vdb(dir + "/whole.vdb"), b = read_vdb(dir + "/planes.vdb");
+        EXPECT_EQ(a.type, b.type);
+        EXPECT_TRUE(a.data == b.data);
+        EXPECT_EQ(a.metadata, b.metadata);  // the grid type included
+        EXPECT_EQ(a.spacing, b.spacing);
+    }
+    // The grid type a volume was read from, kept when every value fits (a pass
+    // over the planes decides): u32 values within int32 from an int32 grid.
+    Volume u = make_volume(ValueType::U32, {6, 5, 4});
+    for (int64_t i = 0; i < u.count(); ++i) u.as<uint32_t>()[i] = uint32_t(i * 1000);
+    u.metadata["vdb:grid_type"] = "int32";
+    auto planes = planes_of(u);
+    write_vdb(*planes, dir + "/u.vdb");
+    EXPECT_EQ(read_vdb(dir + "/u.vdb").metadata.at("vdb:grid_type"), "int32");
+    // Planes that fail mid-way leave nothing.
+    struct Failing final : VolumePlanes {
+        Volume h;
+        const Volume& header() const override { return h; }
+        void read(int64_t z0, int64_t, std::byte*) override {
+            if (z0 > 1) throw Error(ErrorCode::CorruptData, "'src.tlod': bad chunk");
+        }
+    } failing;
+    failing.h = make_volume(ValueType::F32, {5, 5, 5});
+    failing.h.data = {};
+    std::filesystem::remove(dir + "/f.vdb");
+    EXPECT_THROW(write_vdb(failing, dir + "/f.vdb"), Error);
+    EXPECT_FALSE(std::filesystem::exists(dir + "/f.vdb"));
+}
