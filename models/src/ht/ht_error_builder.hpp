@@ -290,16 +290,19 @@ public:
         for (int n = 1; n <= 4; ++n) {
             const std::vector<int64_t>& rows = tpl.exact[std::size_t(n)];
             const std::size_t stride = std::size_t(1 + 2 * n);
+            const std::size_t count = rows.size() / stride;
             const int64_t* r = rows.data();
-            const int64_t* end = r + rows.size();
-            for (; r + 2 * stride <= end; r += 2 * stride) {
-                const int64_t e0 = int64_t(base[r[0]]) * D - term(r, n);
-                const int64_t e1 = int64_t(base[r[stride]]) * D - term(r + stride, n);
+            std::size_t i = 0;
+            for (; i + 1 < count; i += 2) {
+                const int64_t* a = r + i * stride;
+                const int64_t e0 = int64_t(base[a[0]]) * D - term(a, n);
+                const int64_t e1 = int64_t(base[a[stride]]) * D - term(a + stride, n);
                 w0 = std::max(w0, e0 < 0 ? -e0 : e0);
                 w1 = std::max(w1, e1 < 0 ? -e1 : e1);
             }
-            if (r < end) {
-                const int64_t e0 = int64_t(base[r[0]]) * D - term(r, n);
+            if (i < count) {
+                const int64_t* a = r + i * stride;
+                const int64_t e0 = int64_t(base[a[0]]) * D - term(a, n);
                 w0 = std::max(w0, e0 < 0 ? -e0 : e0);
             }
         }
