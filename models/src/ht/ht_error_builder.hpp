@@ -162,6 +162,10 @@ public:
                 }
                 if (x0 > x1) continue;
                 const T* row = f_ + (z - z0_) * XY_ + y * X_;
+                if (y + kRowsAhead <= hi[1]) {
+                    __builtin_prefetch(row + kRowsAhead * X_ + x0);
+                    __builtin_prefetch(row + kRowsAhead * X_ + x1);
+                }
                 if constexpr (kExactInt) {
                     const int64_t e = row_max_exact(row, x0, x1, int64_t(b.D), int64_t(A), int64_t(Bc));
                     worst = Acc(e) > worst ? Acc(e) : worst;
@@ -179,6 +183,7 @@ public:
     /// Integer data whose terms stay below 2^53 (the double accumulator is then
     /// exact): the same values in 64-bit integers, without conversions, and with
     /// two independent maxima so the loop is not bound by the max's latency.
+    static constexpr int64_t kRowsAhead = 4;
     static constexpr bool kExactInt = std::is_integral_v<T> && std::is_same_v<Acc, double>;
 
     /// max over x in x0..x1 of |row[x] * D - (A x + B)| (exact integers).
@@ -281,32 +286,35 @@ public:
     /// integers (kExactInt): the nonzero weights only, two maxima in flight.
     static int64_t eval_exact(const Template& tpl, const T* base) {
         const int64_t D = int64_t(tpl.D);
-        int64_t w0 = 0, w1 = 0;
-        auto term = [base](const int64_t* r, int n) {
+        int64_t w[2] = {0, 0};
+        eval_exact_group<1>(tpl.exact[1], base, D, w);
+        eval_exact_group<2>(tpl.exact[2], base, D, w);
+        eval_exact_group<3>(tpl.exact[3], base, D, w);
+        eval_exact_group<4>(tpl.exact[4], base, D, w);
+        return std::max(w[0], w[1]);
+    }
+
+    /// The rows of one weight count N: a compile-time N unrolls each row's sum.
+    template <int N>
+    static void eval_exact_group(const std::vector<int64_t>& rows, const T* base, int64_t D, int64_t w[2]) {
+        constexpr std::size_t kStride = 1 + 2 * N;
+        const std::size_t count = rows.size() / kStride;
+        const int64_t* r = rows.data();
+        auto error = [base, D](const int64_t* a) {
             int64_t s = 0;
-            for (int i = 0; i < n; ++i) s += r[1 + 2 * i + 1] * int64_t(base[r[1 + 2 * i]]);
-            return s;
+            for (int i = 0; i < N; ++i) s += a[2 + 2 * i] * int64_t(base[a[1 + 2 * i]]);
+            const int64_t e = int64_t(base[a[0]]) * D - s;
+            return e < 0 ? -e : e;
         };
-        for (int n = 1; n <= 4; ++n) {
-            const std::vector<int64_t>& rows = tpl.exact[std::size_t(n)];
-            const std::size_t stride = std::size_t(1 + 2 * n);
-            const std::size_t count = rows.size() / stride;
-            const int64_t* r = rows.data();
-            std::size_t i = 0;
-            for (; i + 1 < count; i += 2) {
-                const int64_t* a = r + i * stride;
-                const int64_t e0 = int64_t(base[a[0]]) * D - term(a, n);
-                const int64_t e1 = int64_t(base[a[stride]]) * D - term(a + stride, n);
-                w0 = std::max(w0, e0 < 0 ? -e0 : e0);
-                w1 = std::max(w1, e1 < 0 ? -e1 : e1);
-            }
-            if (i < count) {
-                const int64_t* a = r + i * stride;
-                const int64_t e0 = int64_t(base[a[0]]) * D - term(a, n);
-                w0 = std::max(w0, e0 < 0 ? -e0 : e0);
-            }
+        int64_t w0 = w[0], w1 = w[1];
+        std::size_t i = 0;
+        for (; i + 1 < count; i += 2) {
+            w0 = std::max(w0, error(r + i * kStride));
+            w1 = std::max(w1, error(r + (i + 1) * kStride));
         }
-        return std::max(w0, w1);
+        if (i < count) w0 = std::max(w0, error(r + i * kStride));
+        w[0] = w0;
+        w[1] = w1;
     }
 
     /// Span template: per tet of one diamond shape, the row spans of its grid
