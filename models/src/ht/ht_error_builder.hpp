@@ -392,6 +392,10 @@ public:
             }
             const auto* sp = st.spans.data() + ts.first;
             for (std::size_t k = 0; k < ts.count; ++k, ++sp) {
+                // The rows of a diamond are up to 2h planes apart: ask for a
+                // later row's first line now (the scan of one row is too short
+                // to hide a miss).
+                if (k + kRowsAhead < ts.count) __builtin_prefetch(base + sp[kRowsAhead].row + sp[kRowsAhead].x0);
                 const Acc Bc = Acc(sp->b[0]) * fv[0] + Acc(sp->b[1]) * fv[1] +
                                Acc(sp->b[2]) * fv[2] + Acc(sp->b[3]) * fv[3];
                 const T* row = base + sp->row;

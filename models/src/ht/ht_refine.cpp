@@ -17,14 +17,19 @@
 // split bitset and a vertex index per grid point, the fastest when the grid is
 // in memory anyway), and over a sample source (ht_sample_source.hpp) with the
 // split set and vertex numbering in a hash table sized by the output.
+#include <tbb/concurrent_unordered_set.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_for_each.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
-#include <unordered_set>
 #include <vector>
 
 #include "tetlod/models/detail/ht_geometry.hpp"
@@ -118,7 +123,24 @@ private:
 
 // ---- split marks and vertex ids of points in B: Marks ----
 
+/// Canonical vertex order: Morton (z-order) of the coordinates, so vertex ids
+/// depend on the split set only, never on the order in which threads found it.
+/// The comparison of the most significant differing bit, without keys.
+inline bool morton_less(const Pt& a, const Pt& b) {
+    int axis = 2;
+    uint32_t top = 0;
+    for (int d = 2; d >= 0; --d) {
+        const uint32_t x = uint32_t(a[std::size_t(d)]) ^ uint32_t(b[std::size_t(d)]);
+        if (top < x && top < (top ^ x)) {
+            top = x;
+            axis = d;
+        }
+    }
+    return a[std::size_t(axis)] < b[std::size_t(axis)];
+}
+
 /// A bit and a vertex index per grid point, in untouched zero pages until used.
+/// Splits may be claimed from several threads at once; ids are set after.
 class DenseMarks {
 public:
     explicit DenseMarks(const Dims& d) : X_(d.x), XY_(d.x * d.y) {
@@ -128,31 +150,52 @@ public:
     }
     bool split(const Pt& c) const {
         const int64_t i = index(c);
-        return (split_[i >> 6] >> (i & 63)) & 1;
+        return (word(i >> 6).load(std::memory_order_relaxed) >> (i & 63)) & 1;
     }
-    /// Is c split; if so, its vertex id in `id`.
+    /// Is c split; if so, its vertex id in `id` (after number_vertices).
     bool split_id(const Pt& c, uint32_t& id) const {
-        const int64_t i = index(c);
-        if (!((split_[i >> 6] >> (i & 63)) & 1)) return false;
-        id = ids_[i];
+        if (!split(c)) return false;
+        id = ids_[index(c)];
         return true;
     }
-    void mark_split(const Pt& c, uint32_t id) {
+    /// Marks c split: true if this call did (of racing threads, one does).
+    bool claim(const Pt& c) {
         const int64_t i = index(c);
-        split_[i >> 6] |= uint64_t{1} << (i & 63);
-        ids_[i] = id;
+        const uint64_t bit = uint64_t{1} << (i & 63);
+        return !(word(i >> 6).fetch_or(bit, std::memory_order_relaxed) & bit);
     }
-    void add_corner(const Pt& c, uint32_t id) { ids_[index(c)] = id; }
+    void add_corner(const Pt& c) { corners_.push_back(c); }
     uint32_t id(const Pt& p) const { return ids_[index(p)]; }
+
+    /// Every vertex: split centres and corners, in no particular order.
+    std::vector<Pt> vertices() const {
+        tbb::enumerable_thread_specific<std::vector<Pt>> found;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, split_.size(), 4096), [&](const auto& r) {
+            auto& out = found.local();
+            for (std::size_t w = r.begin(); w < r.end(); ++w)
+                for (uint64_t bits = split_[w]; bits; bits &= bits - 1) {
+                    const int64_t i = int64_t(w) * 64 + std::countr_zero(bits);
+                    out.push_back(Pt{int32_t(i % X_), int32_t(i % XY_ / X_), int32_t(i / XY_)});
+                }
+        });
+        std::vector<Pt> all(corners_);
+        for (const auto& v : found) all.insert(all.end(), v.begin(), v.end());
+        return all;
+    }
+    void set_id(const Pt& p, uint32_t id) { ids_[index(p)] = id; }
 
 private:
     int64_t index(const Pt& p) const { return p[2] * XY_ + p[1] * X_ + p[0]; }
+    std::atomic_ref<uint64_t> word(int64_t w) const {
+        return std::atomic_ref<uint64_t>(const_cast<uint64_t&>(split_[std::size_t(w)]));
+    }
     int64_t X_, XY_;
     ZeroedVector<uint64_t> split_;
     std::unique_ptr<uint32_t[]> ids_;  // valid only at vertices (split centres, corners)
+    std::vector<Pt> corners_;
 };
 
-/// One hash entry per vertex: id << 1 | split.
+/// One map entry per vertex: id << 1 | split (before numbering: id 0).
 class SparseMarks {
 public:
     explicit SparseMarks(const Dims& d) : map_(std::max({d.x, d.y, d.z}) - 1) {}
@@ -166,11 +209,27 @@ public:
         id = v >> 1;
         return true;
     }
-    void mark_split(const Pt& c, uint32_t id) { map_.put(c, id << 1 | 1u); }
-    void add_corner(const Pt& c, uint32_t id) { map_.put(c, id << 1); }
+    bool claim(const Pt& c) { return map_.set_bit0(c); }
+    void add_corner(const Pt& c) { map_.put(c, 0); }
     uint32_t id(const Pt& p) const {
         uint32_t v;
         return map_.find(p, v) ? v >> 1 : kNoVertex;
+    }
+    std::vector<Pt> vertices() const {
+        tbb::enumerable_thread_specific<std::vector<Pt>> found;
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, map_.block_count(), 256), [&](const auto& r) {
+            auto& out = found.local();
+            for (uint32_t b = r.begin(); b < r.end(); ++b)
+                map_.for_each_in_block(b, [&](const Pt& p, uint32_t) { out.push_back(p); });
+        });
+        std::vector<Pt> all;
+        for (const auto& v : found) all.insert(all.end(), v.begin(), v.end());
+        return all;
+    }
+    void set_id(const Pt& p, uint32_t id) {
+        uint32_t v = 0;
+        map_.find(p, v);
+        map_.put(p, id << 1 | (v & 1));
     }
 
 private:
@@ -255,23 +314,65 @@ public:
     }
 
 private:
-    /// Phase 1: the split set (and the vertices, numbered as split).
+    /// Phase 1: the split set, then the vertices numbered in canonical order.
+    ///
+    /// The split set is the least set that holds the diamonds of the violating
+    /// root tets and is closed under two rules: a split diamond's parents are
+    /// split, and so is the diamond of every violating child tet of a split
+    /// diamond. Both rules look at one diamond and the data only, so threads
+    /// may apply them in any order: each claims a diamond (one thread wins),
+    /// then queues its unsplit parents and violating children. The result is
+    /// the same set for any number of threads; numbering its vertices in
+    /// Morton order afterwards makes the whole mesh independent of them.
     void refine(ht::MTet roots[6]) {
         // Cube corners inside B are vertices of every mesh.
         for (int m = 0; m < 8; ++m) {
             Pt c{(m & 1) ? dom_.L : 0, (m & 2) ? dom_.L : 0, (m & 4) ? dom_.L : 0};
-            if (in_box(c)) marks_.add_corner(c, new_vertex(c));
+            if (in_box(c)) marks_.add_corner(c);
         }
         ht::maubach_roots(dom_.L, roots);
+        std::vector<Pt> initial;
         for (int r = 0; r < 6; ++r) {
             PendingTet p{spine_first(roots[r].v, roots[r].tag), 0};
-            if (!ok(p)) push_pending(ht::midpoint(p.v[0], p.v[1]));
+            if (!ok(acc_, p)) initial.push_back(ht::midpoint(p.v[0], p.v[1]));
         }
-        while (!pending_.empty()) {
-            const Pt c = pending_.back();
-            pending_.pop_back();
-            force(c);
+        tbb::enumerable_thread_specific<Worker> workers([this] { return Worker{acc_.fork(), {}, 0}; });
+        std::vector<std::vector<Pt>> batches;
+        {
+            Worker first{acc_.fork(), {}, 0};
+            for (const Pt& c : initial) queue(first, c);
+            for (const Pt& c : first.stack) batches.push_back({c});
         }
+        tbb::parallel_for_each(batches.begin(), batches.end(), [&](const std::vector<Pt>& batch,
+                                                                   tbb::feeder<std::vector<Pt>>& feeder) {
+            Worker& w = workers.local();
+            w.stack.insert(w.stack.end(), batch.begin(), batch.end());  // hinted when first queued
+            while (!w.stack.empty()) {
+                step(w);
+                // A deep stack: hand its oldest (coarsest) half to an idle
+                // thread, as one task (a task per diamond would cost more
+                // than the diamond).
+                if (w.stack.size() >= kShareAbove) {
+                    const auto half = std::ptrdiff_t(w.stack.size() / 2);
+                    feeder.add(std::vector<Pt>(w.stack.begin(), w.stack.begin() + half));
+                    w.stack.erase(w.stack.begin(), w.stack.begin() + half);
+                }
+            }
+        });
+        for (const Worker& w : workers) split_count_ += w.splits;
+        number_vertices();
+    }
+
+    /// Vertex ids in Morton order of the vertices.
+    void number_vertices() {
+        std::vector<Pt> points = marks_.vertices();
+        if (points.size() >= 0x7FFFFFFFu)
+            throw Error(ErrorCode::TooLarge, "the mesh would have more than 2^31 vertices");
+        tbb::parallel_sort(points.begin(), points.end(), morton_less);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i < r.end(); ++i) marks_.set_id(points[i], uint32_t(i));
+        });
+        mesh_.points = std::move(points);
     }
 
     void report(HtExtractStats* stats, std::chrono::steady_clock::time_point t0,
@@ -315,25 +416,33 @@ private:
         return outside_split_.count(pack(c)) != 0;
     }
 
-    uint32_t new_vertex(const Pt& p) {
-        if (mesh_.points.size() >= 0x7FFFFFFFu)
-            throw Error(ErrorCode::TooLarge, "the mesh would have more than 2^31 vertices");
-        mesh_.points.push_back(p);
-        return uint32_t(mesh_.points.size() - 1);
+    /// Marks c split: true if this thread did.
+    bool claim(const Pt& c) {
+        if (in_box(c)) return marks_.claim(c);
+        return outside_split_.insert(pack(c)).second;
     }
 
     /// Does the tet satisfy its bound (or need no split for its own sake)?
-    bool ok(const PendingTet& t) const {
+    bool ok(Access& acc, const PendingTet& t) const {
         switch (ht::classify_against_data_box(t.v, dom_.box_max)) {
             case BoxRelation::Outside: return true;
             case BoxRelation::Crossing: return false;
             case BoxRelation::Inside: break;
         }
         if (t.level >= dom_.max_level()) return true;
-        const double err = acc_.error(ht::midpoint(t.v[0], t.v[1]));
+        const double err = acc.error(ht::midpoint(t.v[0], t.v[1]));
         if (err <= std::min(eps_in_, eps_out_)) return true;  // no region test needed
-        return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return acc_.value(t.v[i]); }, err);
+        return err <= detail::query_bound(q_, bounds_, t.v, [&](int i) { return acc.value(t.v[i]); }, err);
     }
+
+    /// One thread's share of phase 1: its own sample access and stack.
+    struct Worker {
+        Access acc;
+        std::vector<Pt> stack;
+        uint64_t splits = 0;
+    };
+    // A worker's stack beyond this many diamonds feeds other threads.
+    static constexpr std::size_t kShareAbove = 1024;
 
     /// Queues a diamond for splitting. Splitting it reads its children's
     /// errors: a source that decodes in pieces is told now, so it can decode
@@ -342,8 +451,8 @@ private:
     /// who read the same children), so what is fetched this way is read (but
     /// for children whose tets cross the data box's far faces, which need no
     /// error): decoding ahead changes the time, not the chunks a query reads.
-    void push_pending(const Pt& c) {
-        pending_.push_back(c);
+    void queue(Worker& w, const Pt& c) const {
+        w.stack.push_back(c);
         if constexpr (Access::wants_hints()) {
             const DiamondInfo d = ht::classify_centre(c, dom_.k);
             if (d.level + 1 >= dom_.max_level()) return;
@@ -352,45 +461,46 @@ private:
             int kept = 0;
             for (int i = 0; i < n; ++i)
                 if (in_box(ch[i])) ch[kept++] = ch[i];
-            acc_.prefetch(ch, kept);
+            w.acc.prefetch(ch, kept);
         }
     }
 
-    void force(const Pt& start) {
-        if (is_split(start)) return;
-        stack_.clear();
-        stack_.push_back(start);
-        while (!stack_.empty()) {
-            const Pt c = stack_.back();
-            if (is_split(c)) {
-                stack_.pop_back();
-                continue;
-            }
-            const DiamondInfo d = ht::classify_centre(c, dom_.k);
-            Pt parents[4];
-            const int np = ht::diamond_parents(c, d, dom_.L, parents);
-            bool ready = true;
-            for (int i = 0; i < np; ++i)
-                if (!is_split(parents[i])) {
-                    stack_.push_back(parents[i]);
-                    ready = false;
-                }
-            if (!ready) continue;
-            stack_.pop_back();
-            // Interior diamond: its children's errors are read next; start those
-            // (scattered) loads before the bookkeeping of the split.
-            const auto& m = dom_.box_max;
-            const bool interior = c[0] - d.h >= 0 && c[1] - d.h >= 0 && c[2] - d.h >= 0 &&
-                                  c[0] + d.h <= m[0] && c[1] + d.h <= m[1] && c[2] + d.h <= m[2];
-            Pt ch[8];
-            int nch = 0;
-            if (interior && d.level + 1 < dom_.max_level()) {
-                nch = ht::diamond_children(c, d, dom_.L, ch);
-                for (int i = 0; i < nch; ++i) acc_.prefetch_error(ch[i]);
-            }
-            mark_split(c);
-            if (!interior || !enqueue_children_fast(ch, nch)) enqueue_children(c, d);
+    /// Works on the diamond atop w's stack: its unsplit parents go first (on
+    /// top of it), as parents left for later would be queued again by each of
+    /// its descendants; once they are split, the diamond is claimed and its
+    /// violating children are queued. Another thread may claim any of these
+    /// first; then it applies the rules instead.
+    void step(Worker& w) {
+        const Pt c = w.stack.back();
+        if (is_split(c)) {
+            w.stack.pop_back();
+            return;
         }
+        const DiamondInfo d = ht::classify_centre(c, dom_.k);
+        Pt parents[4];
+        const int np = ht::diamond_parents(c, d, dom_.L, parents);
+        bool ready = true;
+        for (int i = 0; i < np; ++i)
+            if (!is_split(parents[i])) {
+                w.stack.push_back(parents[i]);
+                ready = false;
+            }
+        if (!ready) return;
+        w.stack.pop_back();
+        if (!claim(c)) return;
+        ++w.splits;
+        // Interior diamond: its children's errors are read next; start those
+        // (scattered) loads before the bookkeeping.
+        const auto& m = dom_.box_max;
+        const bool interior = c[0] - d.h >= 0 && c[1] - d.h >= 0 && c[2] - d.h >= 0 && c[0] + d.h <= m[0] &&
+                              c[1] + d.h <= m[1] && c[2] + d.h <= m[2];
+        Pt ch[8];
+        int nch = 0;
+        if (interior && d.level + 1 < dom_.max_level()) {
+            nch = ht::diamond_children(c, d, dom_.L, ch);
+            for (int i = 0; i < nch; ++i) w.acc.prefetch_error(ch[i]);
+        }
+        if (!interior || !queue_children_fast(w, ch, nch)) queue_children(w, c, d);
     }
 
     /// Interior diamonds (all tets, hence all children tets, inside B): the
@@ -399,36 +509,30 @@ private:
     /// when its error exceeds the bound. `ch` holds the child diamonds (none when
     /// they are unit tets). Returns false to ask for the per-tet path: a child
     /// whose verdict depends on the region test.
-    bool enqueue_children_fast(const Pt ch[8], int n) {
+    bool queue_children_fast(Worker& w, const Pt ch[8], int n) const {
         // n == 0 also when the children are unit tets (always ok)
         int pushed = 0;
         Pt todo[8];
         for (int i = 0; i < n; ++i) {
-            const float e = acc_.error(ch[i]);
+            const float e = w.acc.error(ch[i]);
             if (e <= eps_min_) continue;
             if (has_region_ && e <= eps_max_) return false;
             todo[pushed++] = ch[i];
         }
         for (int i = 0; i < pushed; ++i)
-            if (!is_split(todo[i])) push_pending(todo[i]);
+            if (!is_split(todo[i])) queue(w, todo[i]);
         return true;
     }
 
-    void enqueue_children(const Pt& c, const DiamondInfo& d) {
+    void queue_children(Worker& w, const Pt& c, const DiamondInfo& d) const {
         Tet tets[8];
         const int nt = ht::diamond_tets(c, d, dom_.L, tets);
-        // Up to 16 children tets name at most 8 child diamonds: push each once
-        // (at its last mention, so the order of the splits, hence the vertex
-        // numbering, is that of pushing every mention), and none already split.
+        // Up to 16 children tets name at most 8 child diamonds: queue each once.
         Pt todo[16];
         int pushed = 0;
         auto push = [&](const Pt& m) {
             for (int j = 0; j < pushed; ++j)
-                if (todo[j] == m) {
-                    for (int q = j; q + 1 < pushed; ++q) todo[q] = todo[q + 1];
-                    todo[pushed - 1] = m;
-                    return;
-                }
+                if (todo[j] == m) return;
             todo[pushed++] = m;
         };
         for (int i = 0; i < nt; ++i) {
@@ -441,11 +545,11 @@ private:
                 ch.level = uint8_t(d.level + 1);
                 Tet v{side == 0 ? t[0] : t[1], c, t[2], t[3]};
                 ch.v = respine(v);
-                if (!ok(ch)) push(ht::midpoint(ch.v[0], ch.v[1]));
+                if (!ok(w.acc, ch)) push(ht::midpoint(ch.v[0], ch.v[1]));
             }
         }
         for (int j = 0; j < pushed; ++j)
-            if (!is_split(todo[j])) push_pending(todo[j]);
+            if (!is_split(todo[j])) queue(w, todo[j]);
     }
 
     /// Puts the longest edge first (it is unique in the HT).
@@ -459,14 +563,6 @@ private:
             if (l > bl) bl = l, best = e;
         }
         return Tet{v[kE[best][0]], v[kE[best][1]], v[kE[best][2]], v[kE[best][3]]};
-    }
-
-    void mark_split(const Pt& c) {
-        ++split_count_;
-        if (in_box(c))
-            marks_.mark_split(c, new_vertex(c));
-        else
-            outside_split_.insert(pack(c));
     }
 
     /// Output of one stretch of the bisection tree.
@@ -627,9 +723,7 @@ private:
     bool has_region_ = false;
 
     Marks marks_;
-    std::unordered_set<uint64_t> outside_split_;
-    std::vector<Pt> pending_;  // diamonds to force
-    std::vector<Pt> stack_;
+    tbb::concurrent_unordered_set<uint64_t> outside_split_;
     TetMesh mesh_;
     double max_error_ = 0;
     uint64_t split_count_ = 0, visited_ = 0;
