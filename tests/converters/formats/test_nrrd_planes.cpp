@@ -194,3 +194,55 @@ TEST(NrrdPlanes, BadStreamsAndFilesAreCleanErrors) {
     allow.allow_external_data = true;
     EXPECT_TRUE(open_nrrd_planes(dir + "/sub/out.nhdr", allow));
 }
+
+// A header claiming a large volume over a garbage, cut or short compressed stream
+// fails when the planes are opened (the first plane is inflated there), naming
+// the data file, before a caller has planned any buffer from the claimed dims.
+TEST(NrrdPlanes, GarbageStreamsFailAtOpen) {
+    const std::string dir = tmp_dir("nrrd_planes_open");
+    std::mt19937 rng(11);
+    std::string junk(1100000, '\0');  // enough bytes for the deflate bound of 1 GiB
+    for (char& c : junk) c = char(rng());
+    const std::string big = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 1024\n";
+    // gzip magic then garbage, attached.
+    std::string gz = junk;
+    gz[0] = char(0x1f), gz[1] = char(0x8b), gz[2] = 8, gz[3] = 0;
+    write_text(dir + "/g.nrrd", big + "encoding: gzip\n\n" + gz);
+    expect_error([&] { open_nrrd_planes(dir + "/g.nrrd", {}); }, ErrorCode::CorruptData,
+                 {"g.nrrd", "corrupt"});
+    // A valid gzip header over a garbage deflate stream, detached.
+    const std::string head = deflate_bytes("", true).substr(0, 10);
+    write_text(dir + "/h.gz", head + junk);
+    write_text(dir + "/h.nhdr", big + "encoding: gzip\ndata file: h.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/h.nhdr", {}); }, ErrorCode::CorruptData,
+                 {"h.gz", "corrupt"});
+    // MetaImage, zlib magic then garbage in a detached data file.
+    std::string z = junk;
+    z[0] = char(0x78), z[1] = char(0x9c);
+    write_text(dir + "/z.zraw", z);
+    write_text(dir + "/z.mhd",
+               "ObjectType = Image\nNDims = 3\nDimSize = 1024 1024 1024\nElementType = MET_UCHAR\n"
+               "CompressedData = True\nElementDataFile = z.zraw\n");
+    expect_error([&] { open_metaimage_planes(dir + "/z.mhd", {}); }, ErrorCode::CorruptData,
+                 {"z.zraw", "corrupt"});
+    // Not a deflate stream at all.
+    write_text(dir + "/t.gz", std::string(2000, 'x'));
+    write_text(dir + "/t.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: t.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/t.nhdr", {}); }, ErrorCode::CorruptData, {"t.gz"});
+    // A stream cut before its first plane ends.
+    const std::string good = deflate_bytes(samples(0, Z), true);
+    write_text(dir + "/c.gz", good.substr(0, 12));
+    write_text(dir + "/c.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: c.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/c.nhdr", {}); }, ErrorCode::Truncated, {"c.gz"});
+    // A valid stream that ends before a plane of a large claim (1 MiB planes).
+    std::string half(512 << 10, '\0');
+    for (char& c : half) c = char(rng());
+    write_text(dir + "/p.gz", deflate_bytes(half, true));
+    write_text(dir + "/p.nhdr",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 4\nencoding: gzip\ndata file: p.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/p.nhdr", {}); }, ErrorCode::Truncated,
+                 {"p.gz", "truncated"});
+    // A byte skip over garbage is inflated at open too.
+    write_text(dir + "/s.nhdr", kHead + "encoding: gzip\nendian: little\nbyte skip: 3\ndata file: t.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/s.nhdr", {}); }, ErrorCode::CorruptData, {"t.gz"});
+}
