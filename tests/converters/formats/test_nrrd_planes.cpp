@@ -7,11 +7,10 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
-#include <algorithm>
-#include <numeric>
 #include <random>
 
 #include "format_test_util.hpp"
+#include "support/plane_checks.hpp"
 #include "tetlod/converters/metaimage.hpp"
 #include "tetlod/converters/nrrd.hpp"
 
@@ -49,42 +48,13 @@ std::string deflate_bytes(const std::string& in, bool gzip) {
 
 const std::string kHead = "NRRD0004\ntype: short\ndimension: 3\nsizes: 13 7 10\n";
 
-void expect_planes_equal_whole(VolumePlanes& planes, const Volume& whole) {
-    const Volume& h = planes.header();
-    ASSERT_EQ(h.dims, whole.dims);
-    EXPECT_EQ(h.type, whole.type);
-    EXPECT_EQ(h.spacing, whole.spacing);
-    EXPECT_EQ(h.metadata, whole.metadata);
-    const std::size_t plane = std::size_t(h.dims.x * h.dims.y) * value_size(h.type);
-    std::vector<int64_t> order(std::size_t(h.dims.z));
-    std::iota(order.begin(), order.end(), 0);
-    for (int how : {0, 1, 2}) {
-        if (how == 1) std::reverse(order.begin(), order.end());
-        if (how == 2) std::shuffle(order.begin(), order.end(), std::mt19937(5));
-        std::vector<std::byte> got(whole.data.size());
-        for (int64_t z : order) planes.read(z, 1, got.data() + std::size_t(z) * plane);
-        EXPECT_TRUE(std::equal(got.begin(), got.end(), whole.data.begin())) << "order " << how;
-    }
-    std::vector<std::byte> all(whole.data.size());
-    planes.read(0, h.dims.z, all.data());
-    EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
-    for (int64_t z0 = 0; z0 < h.dims.z; z0 += 3)
-        planes.read(z0, std::min<int64_t>(3, h.dims.z - z0), all.data() + std::size_t(z0) * plane);
-    EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
-    planes.read(h.dims.z - 1, 1, all.data());  // the last plane again (padding repeats it)
-    planes.read(h.dims.z - 1, 1, all.data());
-    EXPECT_TRUE(std::equal(all.begin(), all.begin() + std::ptrdiff_t(plane),
-                           whole.data.begin() + std::ptrdiff_t((h.dims.z - 1) * int64_t(plane))));
-    EXPECT_THROW(planes.read(h.dims.z, 1, all.data()), Error);
-}
-
 void check(const std::string& path) {
     SCOPED_TRACE(path);
     const bool mha = path.find(".mh") != std::string::npos;
     const Volume whole = mha ? read_metaimage(path) : read_nrrd(path);
     auto planes = mha ? open_metaimage_planes(path, {}) : open_nrrd_planes(path, {});
     ASSERT_TRUE(planes);
-    expect_planes_equal_whole(*planes, whole);
+    expect_planes_equal_whole(*planes, whole, 5);
 }
 
 }  // namespace
