@@ -185,6 +185,39 @@ void check_hdf5_output(const std::string& file, const std::string& dataset_in) {
 
 namespace {
 
+// A creation property list of class `cls` (file, group or dataset) without the
+// access, modification, change and birth times libhdf5 otherwise stamps into
+// the object's header: the same volume written twice gives the same bytes.
+Hid untimed_creation_plist(hid_t cls, const std::string& what) {
+    Hid p(H5Pcreate(cls), H5Pclose);
+    if (!p.valid() || H5Pset_obj_track_times(p.get(), 0) < 0)
+        throw Error(ErrorCode::IoError, what + ": cannot set up an HDF5 property list: " + hdf5_error_text());
+    return p;
+}
+
+// Creates the groups on the way to `dataset` that do not exist yet, untimed (the
+// library's intermediate group creation takes no group creation property list).
+// A path through something that is not a group is left to H5Dcreate2 to refuse.
+void create_parent_groups(hid_t file, const std::string& dataset, const std::string& what) {
+    const Hid gcpl = untimed_creation_plist(H5P_GROUP_CREATE, what);
+    std::string prefix;
+    for (std::size_t pos = 1;;) {
+        const std::size_t next = dataset.find('/', pos);
+        if (next == std::string::npos) return;  // the last name is the dataset's
+        const std::string name = dataset.substr(pos, next - pos);
+        pos = next + 1;
+        if (name.empty() || name == ".") continue;  // "a//b" and "a/./b" name "a/b", as in HDF5
+        prefix += "/" + name;
+        const htri_t exists = H5Lexists(file, prefix.c_str(), H5P_DEFAULT);
+        if (exists > 0) continue;
+        if (exists < 0) return;
+        Hid g(H5Gcreate2(file, prefix.c_str(), H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+        if (!g.valid())
+            throw Error(ErrorCode::IoError,
+                        what + ": cannot create the group '" + prefix + "': " + hdf5_error_text());
+    }
+}
+
 // Writes the samples of the dataset just created (memory type: the volume's native type).
 using FillDataset = std::function<void(hid_t dataset, hid_t memory_type, const std::string& what)>;
 
@@ -223,8 +256,12 @@ void write_hdf5_with(const Volume& vol, const std::string& file, const std::stri
     }
 
     {
+        // No time is recorded in any object created here (the root group of a
+        // new file, parent groups, the dataset): output bytes depend on the
+        // volume only. An updated file's existing groups keep whatever they track.
+        const Hid fcpl = untimed_creation_plist(H5P_FILE_CREATE, what);
         Hid f(update ? H5Fopen(temp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT)
-                     : H5Fcreate(temp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
+                     : H5Fcreate(temp.c_str(), H5F_ACC_TRUNC, fcpl.get(), H5P_DEFAULT),
               H5Fclose);
         if (!f.valid())
             throw Error(ErrorCode::IoError,
@@ -233,9 +270,8 @@ void write_hdf5_with(const Volume& vol, const std::string& file, const std::stri
         hsize_t shape[3] = {static_cast<hsize_t>(vol.dims.z), static_cast<hsize_t>(vol.dims.y),
                             static_cast<hsize_t>(vol.dims.x)};
         Hid space(H5Screate_simple(3, shape, nullptr), H5Sclose);
-        Hid lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
-        H5Pset_create_intermediate_group(lcpl.get(), 1);
-        Hid dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+        create_parent_groups(f.get(), dataset, what);
+        Hid dcpl = untimed_creation_plist(H5P_DATASET_CREATE, what);
         if (options.deflate_level > 0) {
             const std::size_t w = value_size(vol.type);
             hsize_t rows = std::clamp<hsize_t>((std::size_t{1} << 22) / (shape[2] * w), 1, shape[1]);
@@ -244,7 +280,7 @@ void write_hdf5_with(const Volume& vol, const std::string& file, const std::stri
             H5Pset_shuffle(dcpl.get());
             H5Pset_deflate(dcpl.get(), static_cast<unsigned>(options.deflate_level));
         }
-        Hid d(H5Dcreate2(f.get(), dataset.c_str(), file_type(vol.type, options.endian), space.get(), lcpl.get(),
+        Hid d(H5Dcreate2(f.get(), dataset.c_str(), file_type(vol.type, options.endian), space.get(), H5P_DEFAULT,
                          dcpl.get(), H5P_DEFAULT),
               H5Dclose);
         if (!d.valid()) throw Error(ErrorCode::IoError, what + ": cannot create the dataset: " + hdf5_error_text());

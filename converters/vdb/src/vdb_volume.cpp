@@ -66,6 +66,40 @@ struct Extent {
     Dims dims;
 };
 
+template <class G>
+struct GridKind {
+    using Grid = G;
+};
+
+// The scalar grid classes tetlod reads and writes: calls f(GridKind<G>{}) for
+// the first G of FloatGrid, DoubleGrid, Int32Grid, Int64Grid, BoolGrid that
+// pick(GridKind<G>{}) accepts, else returns none(). One list for the whole
+// read, the plane reader and the writer.
+template <class Pick, class F, class None>
+decltype(auto) dispatch_scalar_grid(Pick&& pick, F&& f, None&& none) {
+    if (pick(GridKind<openvdb::FloatGrid>{})) return f(GridKind<openvdb::FloatGrid>{});
+    if (pick(GridKind<openvdb::DoubleGrid>{})) return f(GridKind<openvdb::DoubleGrid>{});
+    if (pick(GridKind<openvdb::Int32Grid>{})) return f(GridKind<openvdb::Int32Grid>{});
+    if (pick(GridKind<openvdb::Int64Grid>{})) return f(GridKind<openvdb::Int64Grid>{});
+    if (pick(GridKind<openvdb::BoolGrid>{})) return f(GridKind<openvdb::BoolGrid>{});
+    return none();
+}
+
+// The grid's class test, as a pick for dispatch_scalar_grid.
+auto is_grid_of(const openvdb::GridBase& g) {
+    return [&g](auto kind) { return g.isType<typename decltype(kind)::Grid>(); };
+}
+
+// The type a grid's values are staged in by the whole read (Int64 as double,
+// narrowed afterwards; bool as u8), and the plane reader's starting point.
+template <class V>
+constexpr ValueType staged_type() {
+    if constexpr (std::is_same_v<V, bool>) return ValueType::U8;
+    else if constexpr (std::is_same_v<V, float>) return ValueType::F32;
+    else if constexpr (std::is_same_v<V, int32_t>) return ValueType::I32;
+    else return ValueType::F64;
+}
+
 template <class GridT>
 void fill_dense(const GridT& grid, const Extent& ext, Volume& vol, const std::string& what) {
     using V = typename GridT::ValueType;
@@ -144,6 +178,20 @@ uint64_t check_before_library(const std::string& path) {
     const uint64_t size = std::filesystem::file_size(path, ec);
     if (ec) throw Error(ErrorCode::IoError, "cannot open '" + path + "': " + ec.message());
     return size;
+}
+
+// check_before_library, then the guard's checks of the layout and of the
+// selected grid's claims (what a read of one grid needs). Returns the file size.
+uint64_t check_grid_read(const std::string& path, const VolumeReadOptions& options) {
+    const uint64_t size = check_before_library(path);
+    const auto layout = vdb_guard::check_vdb_layout(path, size);
+    vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
+    return size;
+}
+
+// The isolated child's task for reading `path` (`size` bytes) under `isolation`'s limits.
+IsolatedTask vdb_task(const std::string& path, const IsolationOptions& isolation, uint64_t size) {
+    return IsolatedTask{"OpenVDB", path, isolation_time_limit(isolation, size), isolation_memory_limit(isolation, size)};
 }
 
 std::vector<std::pair<std::string, std::string>> list_vdb_grids_here(const std::string& path) {
@@ -297,33 +345,28 @@ Volume read_vdb_here(const std::string& path, const VolumeReadOptions& options, 
     const Extent& ext = src.ext;
     Volume vol;
     try {
-        if (grid->isType<openvdb::FloatGrid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::F32);
-            fill_dense(*openvdb::gridConstPtrCast<openvdb::FloatGrid>(grid), ext, vol, what);
-        } else if (grid->isType<openvdb::DoubleGrid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::F64);
-            fill_dense(*openvdb::gridConstPtrCast<openvdb::DoubleGrid>(grid), ext, vol, what);
-        } else if (grid->isType<openvdb::Int32Grid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::I32);
-            fill_dense(*openvdb::gridConstPtrCast<openvdb::Int32Grid>(grid), ext, vol, what);
-        } else if (grid->isType<openvdb::Int64Grid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::F64);
-            fill_dense(*openvdb::gridConstPtrCast<openvdb::Int64Grid>(grid), ext, vol, what);
-            // tetlod volumes hold at most 32-bit integers: the declared type, else
-            // i32, else u32 (u32 volumes are written as Int64 grids).
-            std::optional<ValueType> declared;
-            if (auto t = (*grid)["tetlod_value_type"]) declared = parse_value_type(t->str());
-            if (!(declared && !is_float(*declared) && try_narrow(vol, *declared)) && !try_narrow(vol, ValueType::I32) &&
-                !try_narrow(vol, ValueType::U32))
+        dispatch_scalar_grid(
+            is_grid_of(*grid),
+            [&](auto kind) {
+                using G = typename decltype(kind)::Grid;
+                using V = typename G::ValueType;
+                vol = Volume::allocate(ext.dims, staged_type<V>());
+                fill_dense(*openvdb::gridConstPtrCast<G>(grid), ext, vol, what);
+                if constexpr (std::is_same_v<V, int64_t>) {
+                    // tetlod volumes hold at most 32-bit integers: the declared type, else
+                    // i32, else u32 (u32 volumes are written as Int64 grids).
+                    std::optional<ValueType> declared;
+                    if (auto t = (*grid)["tetlod_value_type"]) declared = parse_value_type(t->str());
+                    if (!(declared && !is_float(*declared) && try_narrow(vol, *declared)) &&
+                        !try_narrow(vol, ValueType::I32) && !try_narrow(vol, ValueType::U32))
+                        throw Error(ErrorCode::UnsupportedFeature,
+                                    what + ": Int64 grid '" + name + "' holds values that do not fit a 32-bit integer");
+                }
+            },
+            [&] {
                 throw Error(ErrorCode::UnsupportedFeature,
-                            what + ": Int64 grid '" + name + "' holds values that do not fit a 32-bit integer");
-        } else if (grid->isType<openvdb::BoolGrid>()) {
-            vol = Volume::allocate(ext.dims, ValueType::U8);
-            fill_dense(*openvdb::gridConstPtrCast<openvdb::BoolGrid>(grid), ext, vol, what);
-        } else {
-            throw Error(ErrorCode::UnsupportedFeature,
-                        what + ": grid '" + name + "' has an unsupported type " + grid->type());
-        }
+                            what + ": grid '" + name + "' has an unsupported type " + grid->type());
+            });
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
@@ -417,10 +460,7 @@ template <class GridT>
 ValueType planes_type(const GridT& grid, const GridSource& src) {
     using V = typename GridT::ValueType;
     const GridValues<GridT> values(grid, src.ext);
-    ValueType type = std::is_same_v<V, bool>      ? ValueType::U8
-                     : std::is_same_v<V, float>   ? ValueType::F32
-                     : std::is_same_v<V, int32_t> ? ValueType::I32
-                                                  : ValueType::F64;
+    ValueType type = staged_type<V>();
     auto fits = [&](ValueType target) {
         return target == type || values.all([&](double v) { return value_fits(target, v); });
     };
@@ -502,12 +542,13 @@ std::unique_ptr<VolumePlanes> open_vdb_planes_here(const std::string& path, cons
     const std::string what = src.what, name = src.name;
     try {
         const openvdb::GridBase& g = *src.grid;
-        if (g.isType<openvdb::FloatGrid>()) return make_vdb_planes<openvdb::FloatGrid>(src);
-        if (g.isType<openvdb::DoubleGrid>()) return make_vdb_planes<openvdb::DoubleGrid>(src);
-        if (g.isType<openvdb::Int32Grid>()) return make_vdb_planes<openvdb::Int32Grid>(src);
-        if (g.isType<openvdb::Int64Grid>()) return make_vdb_planes<openvdb::Int64Grid>(src);
-        if (g.isType<openvdb::BoolGrid>()) return make_vdb_planes<openvdb::BoolGrid>(src);
-        throw Error(ErrorCode::UnsupportedFeature, what + ": grid '" + name + "' has an unsupported type " + g.type());
+        return dispatch_scalar_grid(
+            is_grid_of(g),
+            [&](auto kind) { return make_vdb_planes<typename decltype(kind)::Grid>(src); },
+            [&]() -> std::unique_ptr<VolumePlanes> {
+                throw Error(ErrorCode::UnsupportedFeature,
+                            what + ": grid '" + name + "' has an unsupported type " + g.type());
+            });
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
@@ -520,31 +561,24 @@ std::unique_ptr<VolumePlanes> open_vdb_planes_here(const std::string& path, cons
 std::vector<std::pair<std::string, std::string>> list_vdb_grids(const std::string& path) {
     const uint64_t size = check_before_library(path);
     vdb_guard::check_vdb_layout(path, size);
-    IsolatedTask task{"OpenVDB", path, isolation_time_limit(IsolationOptions{}, size),
-                      isolation_memory_limit(IsolationOptions{}, size)};
+    const IsolatedTask task = vdb_task(path, IsolationOptions{}, size);
     return read_pairs_isolated(task, [&] { return list_vdb_grids_here(path); });
 }
 
 Volume read_vdb(const std::string& path, const VolumeReadOptions& options) {
-    const uint64_t size = check_before_library(path);
-    const auto layout = vdb_guard::check_vdb_layout(path, size);
-    vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
+    const uint64_t size = check_grid_read(path, options);
     if (!options.isolation.enabled) return read_vdb_here(path, options, size);
     // OpenVDB overflows its heap on some corrupt files: it reads in a child process.
-    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size),
-                      isolation_memory_limit(options.isolation, size)};
+    const IsolatedTask task = vdb_task(path, options.isolation, size);
     return read_volume_isolated(task, [&] { return read_vdb_here(path, options, size); });
 }
 
 std::unique_ptr<VolumePlanes> open_vdb_planes(const std::string& path, const VolumeReadOptions& options) {
-    const uint64_t size = check_before_library(path);
-    const auto layout = vdb_guard::check_vdb_layout(path, size);
-    vdb_guard::check_selected_grid_claims(layout, options.grid, size, "'" + path + "'");
+    const uint64_t size = check_grid_read(path, options);
     if (!options.isolation.enabled) return open_vdb_planes_here(path, options, size);
     // The child loads the grid under the whole read's limits, then answers plane
     // requests from it; reading a plane allocates nothing.
-    IsolatedTask task{"OpenVDB", path, isolation_time_limit(options.isolation, size),
-                      isolation_memory_limit(options.isolation, size)};
+    const IsolatedTask task = vdb_task(path, options.isolation, size);
     return open_planes_isolated(task, options.isolation, [&] {
         return PlanesInChild{open_vdb_planes_here(path, options, size), uint64_t{16} << 20};
     });
@@ -579,17 +613,9 @@ typename GridT::Ptr make_grid(VolumePlanes& planes) {
 
 template <class GridT>
 openvdb::GridBase::Ptr make_grid_of(VolumePlanes& planes) {
-    switch (planes.header().type) {
-        case ValueType::F32: return make_grid<GridT, float>(planes);
-        case ValueType::F64: return make_grid<GridT, double>(planes);
-        case ValueType::U8: return make_grid<GridT, uint8_t>(planes);
-        case ValueType::I8: return make_grid<GridT, int8_t>(planes);
-        case ValueType::U16: return make_grid<GridT, uint16_t>(planes);
-        case ValueType::I16: return make_grid<GridT, int16_t>(planes);
-        case ValueType::I32: return make_grid<GridT, int32_t>(planes);
-        case ValueType::U32: return make_grid<GridT, uint32_t>(planes);
-    }
-    return nullptr;
+    return dispatch_value_type(planes.header().type, [&](auto t) -> openvdb::GridBase::Ptr {
+        return make_grid<GridT, decltype(t)>(planes);
+    });
 }
 
 // A pass over the planes (read once more when the grid is built).
@@ -659,12 +685,13 @@ void write_vdb(VolumePlanes& planes, const std::string& path) {
     openvdb::initialize();
 
     const std::string grid_type = grid_type_for(planes);
-    openvdb::GridBase::Ptr grid;
-    if (grid_type == "float") grid = make_grid_of<openvdb::FloatGrid>(planes);
-    else if (grid_type == "double") grid = make_grid_of<openvdb::DoubleGrid>(planes);
-    else if (grid_type == "int64") grid = make_grid_of<openvdb::Int64Grid>(planes);
-    else if (grid_type == "bool") grid = make_grid_of<openvdb::BoolGrid>(planes);
-    else grid = make_grid_of<openvdb::Int32Grid>(planes);
+    // grid_type is a value type name as GridBase::valueType() gives it.
+    openvdb::GridBase::Ptr grid = dispatch_scalar_grid(
+        [&](auto kind) {
+            return grid_type == openvdb::typeNameAsString<typename decltype(kind)::Grid::ValueType>();
+        },
+        [&](auto kind) { return make_grid_of<typename decltype(kind)::Grid>(planes); },
+        [&] { return make_grid_of<openvdb::Int32Grid>(planes); });
     grid->setName(vol.field_name.empty() ? "density" : vol.field_name);
     const Vec3& s = vol.spacing;
     const Vec3& o = vol.origin;

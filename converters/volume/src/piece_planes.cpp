@@ -136,6 +136,20 @@ class PiecePlanes final : public VolumePlanes {
 
     const Volume& header() const override { return header_; }
 
+    /// Inflates the first plane of the first compressed piece (all of the
+    /// piece when it holds less), through the discard buffer: a garbage, cut or
+    /// missing stream is an error now, before a caller plans buffers from the
+    /// header's dims, and a plane's worth of buffer is only ever planned for a
+    /// stream shown to produce a plane. The stream is kept: a read of plane 0
+    /// starts it again (that plane is inflated twice), a read further on goes
+    /// on from here.
+    void check_first_plane() {
+        if (!compressed_ || per_piece_ == 0) return;
+        stream_.emplace(pieces_[0], what_);
+        open_ = 0;
+        stream_->next(nullptr, std::min(plane_, per_piece_), per_piece_);
+    }
+
     void read(int64_t z0, int64_t count, std::byte* dst) override {
         const Dims d = header_.dims;
         if (z0 < 0 || count < 0 || count > d.z || z0 > d.z - count)
@@ -221,8 +235,10 @@ class PiecePlanes final : public VolumePlanes {
 std::unique_ptr<VolumePlanes> open_piece_planes(Volume header, std::vector<DataPiece> pieces,
                                                 Compression compression, Endian file_endian,
                                                 std::string what) {
-    return std::make_unique<PiecePlanes>(std::move(header), std::move(pieces), compression,
-                                         file_endian, std::move(what));
+    auto planes = std::make_unique<PiecePlanes>(std::move(header), std::move(pieces), compression,
+                                                file_endian, std::move(what));
+    planes->check_first_plane();
+    return planes;
 }
 
 }  // namespace tetlod::detail

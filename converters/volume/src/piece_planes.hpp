@@ -16,7 +16,10 @@ namespace tetlod::detail {
 /// passed restarts that piece's stream from its start, so reading the planes in
 /// order costs one pass over the files; the last plane read is kept, so reading
 /// it again (padding repeats the last plane) costs nothing. A piece's trailer
-/// (CRC-32/Adler-32) is checked when its last byte is read. The pieces' sizes
+/// (CRC-32/Adler-32) is checked when its last byte is read. The first plane
+/// of a compressed first piece is inflated here (and thrown away), so a garbage
+/// or cut stream fails at open, before anything is allocated for the header's
+/// claim. The pieces' sizes
 /// must have been checked (check_piece_sizes). Errors name `what` and the data
 /// file (Truncated, CorruptData, IoError).
 std::unique_ptr<VolumePlanes> open_piece_planes(Volume header, std::vector<DataPiece> pieces,

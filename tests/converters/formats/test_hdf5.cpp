@@ -1,7 +1,10 @@
 // HDF5 reader/writer: round trips for every type, byte order and compression;
 // the real h5py-written copies in the shared data against their raw originals;
-// axis order; bad inputs.
+// axis order; bad inputs; no time stamped into the bytes.
 #include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
 
 #include "format_test_util.hpp"
 #include "tetlod/converters/hdf5.hpp"
@@ -113,4 +116,27 @@ TEST(Hdf5, FailedWriteLeavesNothing) {
     v = make_volume(ValueType::U8);
     expect_error([&] { write_hdf5(v, dir + "/no/such/dir/out.h5", "/volume"); }, ErrorCode::IoError, {"out.h5"});
     EXPECT_EQ(files_in(dir), 0u);
+}
+
+// No time is stamped into the file: the same volume written a second later, to a
+// new file, gives the same bytes (contiguous and deflated, parent groups created).
+TEST(Hdf5, SameVolumeGivesTheSameBytes) {
+    const std::string dir = tmp_dir("h5_repro");
+    const Volume v = make_volume(ValueType::F32, {9, 6, 4});
+    auto write_all = [&](const std::string& stem) {
+        Hdf5WriteOptions deflated;
+        deflated.deflate_level = 6;
+        write_hdf5(v, dir + "/" + stem + "_plain.h5", "/volume");
+        write_hdf5(v, dir + "/" + stem + "_deflated.h5", "/x/y/field", deflated);
+        write_hdf5(v, dir + "/" + stem + "_deflated.h5", "/x/z/again");  // an update adds a group
+    };
+    write_all("first");
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // a different second
+    write_all("second");
+    for (const char* which : {"_plain.h5", "_deflated.h5"}) {
+        SCOPED_TRACE(which);
+        const std::string first = slurp(dir + "/first" + which);
+        ASSERT_FALSE(first.empty());
+        EXPECT_TRUE(first == slurp(dir + "/second" + which)) << "the two writes differ";
+    }
 }

@@ -7,11 +7,10 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
-#include <algorithm>
-#include <numeric>
 #include <random>
 
 #include "format_test_util.hpp"
+#include "support/plane_checks.hpp"
 #include "tetlod/converters/metaimage.hpp"
 #include "tetlod/converters/nrrd.hpp"
 
@@ -49,42 +48,13 @@ std::string deflate_bytes(const std::string& in, bool gzip) {
 
 const std::string kHead = "NRRD0004\ntype: short\ndimension: 3\nsizes: 13 7 10\n";
 
-void expect_planes_equal_whole(VolumePlanes& planes, const Volume& whole) {
-    const Volume& h = planes.header();
-    ASSERT_EQ(h.dims, whole.dims);
-    EXPECT_EQ(h.type, whole.type);
-    EXPECT_EQ(h.spacing, whole.spacing);
-    EXPECT_EQ(h.metadata, whole.metadata);
-    const std::size_t plane = std::size_t(h.dims.x * h.dims.y) * value_size(h.type);
-    std::vector<int64_t> order(std::size_t(h.dims.z));
-    std::iota(order.begin(), order.end(), 0);
-    for (int how : {0, 1, 2}) {
-        if (how == 1) std::reverse(order.begin(), order.end());
-        if (how == 2) std::shuffle(order.begin(), order.end(), std::mt19937(5));
-        std::vector<std::byte> got(whole.data.size());
-        for (int64_t z : order) planes.read(z, 1, got.data() + std::size_t(z) * plane);
-        EXPECT_TRUE(std::equal(got.begin(), got.end(), whole.data.begin())) << "order " << how;
-    }
-    std::vector<std::byte> all(whole.data.size());
-    planes.read(0, h.dims.z, all.data());
-    EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
-    for (int64_t z0 = 0; z0 < h.dims.z; z0 += 3)
-        planes.read(z0, std::min<int64_t>(3, h.dims.z - z0), all.data() + std::size_t(z0) * plane);
-    EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
-    planes.read(h.dims.z - 1, 1, all.data());  // the last plane again (padding repeats it)
-    planes.read(h.dims.z - 1, 1, all.data());
-    EXPECT_TRUE(std::equal(all.begin(), all.begin() + std::ptrdiff_t(plane),
-                           whole.data.begin() + std::ptrdiff_t((h.dims.z - 1) * int64_t(plane))));
-    EXPECT_THROW(planes.read(h.dims.z, 1, all.data()), Error);
-}
-
 void check(const std::string& path) {
     SCOPED_TRACE(path);
     const bool mha = path.find(".mh") != std::string::npos;
     const Volume whole = mha ? read_metaimage(path) : read_nrrd(path);
     auto planes = mha ? open_metaimage_planes(path, {}) : open_nrrd_planes(path, {});
     ASSERT_TRUE(planes);
-    expect_planes_equal_whole(*planes, whole);
+    expect_planes_equal_whole(*planes, whole, 5);
 }
 
 }  // namespace
@@ -193,4 +163,56 @@ TEST(NrrdPlanes, BadStreamsAndFilesAreCleanErrors) {
     VolumeReadOptions allow;
     allow.allow_external_data = true;
     EXPECT_TRUE(open_nrrd_planes(dir + "/sub/out.nhdr", allow));
+}
+
+// A header claiming a large volume over a garbage, cut or short compressed stream
+// fails when the planes are opened (the first plane is inflated there), naming
+// the data file, before a caller has planned any buffer from the claimed dims.
+TEST(NrrdPlanes, GarbageStreamsFailAtOpen) {
+    const std::string dir = tmp_dir("nrrd_planes_open");
+    std::mt19937 rng(11);
+    std::string junk(1100000, '\0');  // enough bytes for the deflate bound of 1 GiB
+    for (char& c : junk) c = char(rng());
+    const std::string big = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 1024\n";
+    // gzip magic then garbage, attached.
+    std::string gz = junk;
+    gz[0] = char(0x1f), gz[1] = char(0x8b), gz[2] = 8, gz[3] = 0;
+    write_text(dir + "/g.nrrd", big + "encoding: gzip\n\n" + gz);
+    expect_error([&] { open_nrrd_planes(dir + "/g.nrrd", {}); }, ErrorCode::CorruptData,
+                 {"g.nrrd", "corrupt"});
+    // A valid gzip header over a garbage deflate stream, detached.
+    const std::string head = deflate_bytes("", true).substr(0, 10);
+    write_text(dir + "/h.gz", head + junk);
+    write_text(dir + "/h.nhdr", big + "encoding: gzip\ndata file: h.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/h.nhdr", {}); }, ErrorCode::CorruptData,
+                 {"h.gz", "corrupt"});
+    // MetaImage, zlib magic then garbage in a detached data file.
+    std::string z = junk;
+    z[0] = char(0x78), z[1] = char(0x9c);
+    write_text(dir + "/z.zraw", z);
+    write_text(dir + "/z.mhd",
+               "ObjectType = Image\nNDims = 3\nDimSize = 1024 1024 1024\nElementType = MET_UCHAR\n"
+               "CompressedData = True\nElementDataFile = z.zraw\n");
+    expect_error([&] { open_metaimage_planes(dir + "/z.mhd", {}); }, ErrorCode::CorruptData,
+                 {"z.zraw", "corrupt"});
+    // Not a deflate stream at all.
+    write_text(dir + "/t.gz", std::string(2000, 'x'));
+    write_text(dir + "/t.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: t.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/t.nhdr", {}); }, ErrorCode::CorruptData, {"t.gz"});
+    // A stream cut before its first plane ends.
+    const std::string good = deflate_bytes(samples(0, Z), true);
+    write_text(dir + "/c.gz", good.substr(0, 12));
+    write_text(dir + "/c.nhdr", kHead + "encoding: gzip\nendian: little\ndata file: c.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/c.nhdr", {}); }, ErrorCode::Truncated, {"c.gz"});
+    // A valid stream that ends before a plane of a large claim (1 MiB planes).
+    std::string half(512 << 10, '\0');
+    for (char& c : half) c = char(rng());
+    write_text(dir + "/p.gz", deflate_bytes(half, true));
+    write_text(dir + "/p.nhdr",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 4\nencoding: gzip\ndata file: p.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/p.nhdr", {}); }, ErrorCode::Truncated,
+                 {"p.gz", "truncated"});
+    // A byte skip over garbage is inflated at open too.
+    write_text(dir + "/s.nhdr", kHead + "encoding: gzip\nendian: little\nbyte skip: 3\ndata file: t.gz\n");
+    expect_error([&] { open_nrrd_planes(dir + "/s.nhdr", {}); }, ErrorCode::CorruptData, {"t.gz"});
 }

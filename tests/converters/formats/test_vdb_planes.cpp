@@ -7,11 +7,10 @@
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
-#include <algorithm>
-#include <numeric>
-#include <random>
+#include <functional>
 
 #include "format_test_util.hpp"
+#include "support/plane_checks.hpp"
 #include "tetlod/converters/vdb.hpp"
 
 using namespace tetlod;
@@ -56,28 +55,7 @@ void check(const std::string& path, ValueType expected) {
         VolumeReadOptions o;
         o.isolation.enabled = isolated;
         auto planes = open_vdb_planes(path, o);
-        const Volume& h = planes->header();
-        ASSERT_EQ(h.dims, whole.dims);
-        EXPECT_EQ(h.type, whole.type);
-        EXPECT_EQ(h.spacing, whole.spacing);
-        EXPECT_EQ(h.origin, whole.origin);
-        EXPECT_EQ(h.field_name, whole.field_name);
-        EXPECT_EQ(h.metadata, whole.metadata);
-        const std::size_t plane = std::size_t(h.dims.x * h.dims.y) * value_size(h.type);
-        std::vector<int64_t> order(static_cast<std::size_t>(h.dims.z));
-        std::iota(order.begin(), order.end(), 0);
-        for (int how : {0, 1, 2}) {
-            if (how == 1) std::reverse(order.begin(), order.end());
-            if (how == 2) std::shuffle(order.begin(), order.end(), std::mt19937(9));
-            std::vector<std::byte> got(whole.data.size());
-            for (int64_t z : order) planes->read(z, 1, got.data() + std::size_t(z) * plane);
-            EXPECT_TRUE(got == std::vector<std::byte>(whole.data.begin(), whole.data.end()))
-                << "order " << how;
-        }
-        std::vector<std::byte> all(whole.data.size());
-        planes->read(0, h.dims.z, all.data());
-        EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
-        EXPECT_THROW(planes->read(h.dims.z, 1, all.data()), Error);
+        expect_planes_equal_whole(*planes, whole, 9);
     }
 }
 
@@ -180,15 +158,7 @@ TEST(VdbPlanes, WriterFedPlanesWritesTheWholeWritersGrid) {
     write_vdb(*planes, dir + "/u.vdb");
     EXPECT_EQ(read_vdb(dir + "/u.vdb").metadata.at("vdb:grid_type"), "int32");
     // Planes that fail mid-way leave nothing.
-    struct Failing final : VolumePlanes {
-        Volume h;
-        const Volume& header() const override { return h; }
-        void read(int64_t z0, int64_t, std::byte*) override {
-            if (z0 > 1) throw Error(ErrorCode::CorruptData, "'src.tlod': bad chunk");
-        }
-    } failing;
-    failing.h = make_volume(ValueType::F32, {5, 5, 5});
-    failing.h.data = {};
+    FailingPlanes failing(make_volume(ValueType::F32, {5, 5, 5}), 1);
     std::filesystem::remove(dir + "/f.vdb");
     EXPECT_THROW(write_vdb(failing, dir + "/f.vdb"), Error);
     EXPECT_FALSE(std::filesystem::exists(dir + "/f.vdb"));

@@ -62,7 +62,9 @@ struct Hdf5WriteOptions {
 /// dataset, group and attribute: only `dataset` is added, or replaced when the
 /// installed OutputPolicy (core/output_policy.hpp) allows replacing (a group at
 /// that path is never replaced). Atomic: the update goes to a temporary copy in
-/// the same directory, renamed over `file` (a symlink's target) at the end.
+/// the same directory, renamed over `file` (a symlink's target) at the end. No
+/// time is recorded in the objects created (file, groups, dataset), so the same
+/// volume written to a new file gives the same bytes.
 void write_hdf5(const Volume& volume, const std::string& file, const std::string& dataset,
                 const Hdf5WriteOptions& options = {});
 
