@@ -50,6 +50,7 @@ public:
             if (leaves > (uint64_t{1} << 22)) break;
         }
         capacity_ = std::bit_ceil(std::clamp<uint64_t>(2 * leaves, 64, uint64_t{1} << 22));
+        capacity_log2_ = std::countr_zero(capacity_);
         keys_ = calloc_array<uint64_t>(capacity_);
         leaves_ = calloc_array<uint32_t*>(capacity_);
         // A leaf's blocks are at most kLeafBlocks, and half the table at most is used.
@@ -188,9 +189,8 @@ private:
         return w;
     }
 
-    uint64_t home(uint64_t key) const {
-        return ((key * 0x9E3779B97F4A7C15ull) >> 20) & (capacity_ - 1);
-    }
+    /// Fibonacci hashing: the top bits of the product, which every key bit reaches.
+    uint64_t home(uint64_t key) const { return (key * 0x9E3779B97F4A7C15ull) >> (64 - capacity_log2_); }
 
     const uint32_t* find_leaf(uint64_t key) const {
         for (uint64_t i = home(key), n = 0; n < capacity_; i = (i + 1) & (capacity_ - 1), ++n) {
@@ -250,6 +250,7 @@ private:
     }
 
     uint64_t capacity_ = 0, max_pages_ = 0;
+    int capacity_log2_ = 6;
     uint64_t* keys_ = nullptr;      // leaf key + 1 (0: free), per table entry
     uint32_t** leaves_ = nullptr;   // per table entry: block index + 1 per block of the leaf
     Page** pages_ = nullptr;
