@@ -1,10 +1,12 @@
 // Selective refinement on the HT (normative: spec/ht-model.md §H2-§H3; docs/ht.md).
 //
-// Phase 1 (split set): push every tet that violates its bound, starting from the
-// roots; popping a tet forces its diamond split, first forcing the diamond's
-// parents (a diamond's tets exist only once all its parents are split), then
-// pushes the violating children of the diamond's tets. Every split is forced,
-// so the result is the unique coarsest conforming mesh that honours the query.
+// Phase 1 (split set): the diamonds of the violating root tets are split; a
+// split diamond's parents are split (a diamond's tets exist only once all its
+// parents are), and so is the diamond of every violating child tet of a split
+// diamond. The least set closed under these rules is the unique coarsest
+// conforming mesh that honours the query; threads build it together, each
+// claiming diamonds atomically, in any order. Its vertices are then numbered
+// in Morton order, so the mesh does not depend on the number of threads.
 // Phase 2 (emit): walk the bisection tree from the 6 roots with Maubach's
 // ordered tets; a tet whose diamond is split recurses, any other is output.
 //
@@ -16,7 +18,7 @@
 // One algorithm, two instantiations: over the in-memory model's arrays (a
 // split bitset and a vertex index per grid point, the fastest when the grid is
 // in memory anyway), and over a sample source (ht_sample_source.hpp) with the
-// split set and vertex numbering in a hash table sized by the output.
+// split set and vertex numbering in a blocked point map sized by the output.
 #include <tbb/concurrent_unordered_set.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>

@@ -4,8 +4,8 @@
 // and nothing else. A container reader that decodes chunks on demand is one
 // (codecs/ht: extract_ht_lazy); the in-memory HtModel reads its own arrays.
 //
-// Cost: the refinement keeps its split set and vertex numbering in hash tables
-// sized by the output, never by the grid, so a query costs what it examines.
+// Cost: the refinement keeps its split set and vertex numbering in a map sized
+// by the output, never by the grid, so a query costs what it examines.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -26,8 +26,9 @@ public:
     virtual float error(const Point& p) = 0;
     /// Field value at p (p in B).
     virtual double value(const Point& p) = 0;
-    /// A source for another thread, reading the same data. The parallel emit
-    /// phase uses one per task; the refinement phase uses this one only.
+    /// A source for another thread, reading the same data. Both phases of the
+    /// refinement run in parallel and use one per thread or task (this one
+    /// only for the root tets); a source is used by one thread at a time.
     virtual std::unique_ptr<HtSampleSource> fork() = 0;
     /// A hint from the refinement: the errors at these points (the children
     /// of a diamond it has queued for splitting) will be read. A source that
