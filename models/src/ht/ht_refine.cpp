@@ -141,6 +141,31 @@ inline bool morton_less(const Pt& a, const Pt& b) {
     return a[std::size_t(axis)] < b[std::size_t(axis)];
 }
 
+/// The points `visit(u, f)` passes to f over units u = 0 .. units - 1, after
+/// `first`, in one vector of exactly their size: counted per stretch of
+/// units, then written in place (no per-thread copies to concatenate).
+template <class Visit>
+std::vector<Pt> gather_vertices(const std::vector<Pt>& first, std::size_t units, Visit visit) {
+    constexpr std::size_t kStretch = 1024;
+    const std::size_t stretches = (units + kStretch - 1) / kStretch;
+    std::vector<std::size_t> at(stretches + 1, 0);
+    tbb::parallel_for(std::size_t(0), stretches, [&](std::size_t k) {
+        std::size_t n = 0;
+        for (std::size_t u = k * kStretch; u < std::min(units, (k + 1) * kStretch); ++u) visit(u, [&](const Pt&) { ++n; });
+        at[k + 1] = n;
+    });
+    at[0] = first.size();
+    for (std::size_t k = 0; k < stretches; ++k) at[k + 1] += at[k];
+    std::vector<Pt> all(at[stretches]);
+    std::copy(first.begin(), first.end(), all.begin());
+    tbb::parallel_for(std::size_t(0), stretches, [&](std::size_t k) {
+        std::size_t i = at[k];
+        for (std::size_t u = k * kStretch; u < std::min(units, (k + 1) * kStretch); ++u)
+            visit(u, [&](const Pt& p) { all[i++] = p; });
+    });
+    return all;
+}
+
 /// A bit and a vertex index per grid point, in untouched zero pages until used.
 /// Splits may be claimed from several threads at once; ids are set after.
 class DenseMarks {
@@ -171,18 +196,12 @@ public:
 
     /// Every vertex: split centres and corners, in no particular order.
     std::vector<Pt> vertices() const {
-        tbb::enumerable_thread_specific<std::vector<Pt>> found;
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, split_.size(), 4096), [&](const auto& r) {
-            auto& out = found.local();
-            for (std::size_t w = r.begin(); w < r.end(); ++w)
-                for (uint64_t bits = split_[w]; bits; bits &= bits - 1) {
-                    const int64_t i = int64_t(w) * 64 + std::countr_zero(bits);
-                    out.push_back(Pt{int32_t(i % X_), int32_t(i % XY_ / X_), int32_t(i / XY_)});
-                }
+        return gather_vertices(corners_, split_.size(), [&](std::size_t w, auto&& f) {
+            for (uint64_t bits = split_[w]; bits; bits &= bits - 1) {
+                const int64_t i = int64_t(w) * 64 + std::countr_zero(bits);
+                f(Pt{int32_t(i % X_), int32_t(i % XY_ / X_), int32_t(i / XY_)});
+            }
         });
-        std::vector<Pt> all(corners_);
-        for (const auto& v : found) all.insert(all.end(), v.begin(), v.end());
-        return all;
     }
     void set_id(const Pt& p, uint32_t id) { ids_[index(p)] = id; }
 
@@ -218,15 +237,9 @@ public:
         return map_.find(p, v) ? v >> 1 : kNoVertex;
     }
     std::vector<Pt> vertices() const {
-        tbb::enumerable_thread_specific<std::vector<Pt>> found;
-        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, map_.block_count(), 256), [&](const auto& r) {
-            auto& out = found.local();
-            for (uint32_t b = r.begin(); b < r.end(); ++b)
-                map_.for_each_in_block(b, [&](const Pt& p, uint32_t) { out.push_back(p); });
+        return gather_vertices({}, map_.block_count(), [&](std::size_t b, auto&& f) {
+            map_.for_each_in_block(uint32_t(b), [&](const Pt& p, uint32_t) { f(p); });
         });
-        std::vector<Pt> all;
-        for (const auto& v : found) all.insert(all.end(), v.begin(), v.end());
-        return all;
     }
     void set_id(const Pt& p, uint32_t id) {
         uint32_t v = 0;
