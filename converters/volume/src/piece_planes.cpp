@@ -25,9 +25,14 @@ class Inflater {
         skip_lines(f_.get(), piece.line_skip, piece.file_offset, piece.path, what);
         if (inflateInit2(&zs_, 15 + 32) != Z_OK)
             throw Error(ErrorCode::IoError, what + ": cannot initialise zlib");
-        in_.resize(kZChunk);
-        discard_.resize(kZChunk);
-        skip(uint64_t(piece.byte_skip));  // counted in the decompressed stream
+        try {
+            in_.resize(kZChunk);
+            discard_.resize(kZChunk);
+            skip(uint64_t(piece.byte_skip));  // counted in the decompressed stream
+        } catch (...) {
+            inflateEnd(&zs_);  // no destructor runs for a constructor that throws
+            throw;
+        }
         produced_ = 0;
     }
     ~Inflater() { inflateEnd(&zs_); }
