@@ -183,8 +183,11 @@ public:
     /// Integer data whose terms stay below 2^53 (the double accumulator is then
     /// exact): the same values in 64-bit integers, without conversions, and with
     /// two independent maxima so the loop is not bound by the max's latency.
-    static constexpr int64_t kRowsAhead = 4;
     static constexpr bool kExactInt = std::is_integral_v<T> && std::is_same_v<Acc, double>;
+
+    /// Row scans prefetch the row this many rows ahead: a row holds about 20
+    /// points, too few to hide the miss on its first line.
+    static constexpr int64_t kRowsAhead = 4;
 
     /// max over x in x0..x1 of |row[x] * D - (A x + B)| (exact integers).
     static int64_t row_max_exact(const T* row, int64_t x0, int64_t x1, int64_t D, int64_t A, int64_t B) {

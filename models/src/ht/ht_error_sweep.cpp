@@ -101,7 +101,6 @@ private:
         Tet tet;
         Acc fv[4];
         int64_t z0, z1;
-        int64_t order;  // plane group, then first row
         Acc result = 0;
     };
     static constexpr int64_t kPlanesPerTask = 4;
@@ -129,19 +128,13 @@ private:
                     }
                     lo = std::max(lo, za);
                     hi = std::min(hi, zb);
-                    int64_t ylo = tets[i][0][1];
-                    for (int v = 1; v < 4; ++v) ylo = std::min<int64_t>(ylo, tets[i][v][1]);
-                    // Pieces aligned to groups of kPlanesPerTask planes, so that
-                    // scan_gathered can run every level's pieces of one group
-                    // while its planes are in cache.
-                    for (int64_t z = lo; z <= hi; z = (z / kPlanesPerTask + 1) * kPlanesPerTask) {
+                    for (int64_t z = lo; z <= hi; z += kPlanesPerTask) {
                         RowTask task;
                         task.worst = &worst;
                         task.tet = tets[i];
                         for (int v = 0; v < 4; ++v) task.fv[v] = coarse_value(tets[i][v]);
                         task.z0 = z;
-                        task.z1 = std::min(hi, (z / kPlanesPerTask + 1) * kPlanesPerTask - 1);
-                        task.order = ((z / kPlanesPerTask) << 32) | ylo;
+                        task.z1 = std::min(hi, z + kPlanesPerTask - 1);
                         tasks_.push_back(task);
                     }
                     break;
@@ -151,12 +144,6 @@ private:
     }
 
     void scan_gathered(const ErrorBuilder<T, Acc>& eb) {
-        // By plane group, then by first row: every level's tets are scanned
-        // over a few planes at a time, which then stay in cache, rather than
-        // each tet streaming the whole slab from memory. Maxima do not depend
-        // on the order.
-        std::sort(tasks_.begin(), tasks_.end(),
-                  [](const RowTask& a, const RowTask& b) { return a.order < b.order; });
         tbb::parallel_for(std::size_t(0), tasks_.size(), [&](std::size_t i) {
             RowTask& task = tasks_[i];
             int64_t D = 1;
