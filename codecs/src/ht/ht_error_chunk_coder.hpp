@@ -152,6 +152,8 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
     // code q. The decoder computes the bound; the encoder (7/8 of the diamonds
     // are of cycle 0) need not. The round-trip tests check it on every type.
     const bool bound_is_error = c.cycle == 0 && std::is_integral_v<T> && sizeof(T) <= 2;
+    prefetch_chunk(G, e.data(), c.cycle, c.box, 0);
+    if (!bound_is_error) prefetch_chunk(G, v, c.cycle, c.box, 1);
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
         const int far = touches_far_face(G, c.cycle, x, y, z);
         const uint32_t q = quantize_error(e[G.index(x, y, z)], m);
@@ -160,9 +162,16 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
             lat.set(lat.slot(x, y, z), 0);
             return;
         }
-        const uint32_t lb = bound_is_error && F.interior(x, y, z)
-                                ? q
-                                : lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
+        if (bound_is_error && F.interior(x, y, z)) {
+            // q equals its bound: a zero residual. Its neighbours' residuals are
+            // zero too when they are all interior, so their mean is 0 unread.
+            const int64_t s = lat.slot(x, y, z);
+            const int nb = F.deep_interior(x, y, z) ? 0 : std::min(5, rc::bit_length(lat.neighbour_mean(s)));
+            rc::encode_int(enc, models->m[cls][q != 0][nb], 0, false, 16);
+            lat.set(s, 0);
+            return;
+        }
+        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
         const int64_t delta = int64_t(q) - int64_t(lb);
         const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
         const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));

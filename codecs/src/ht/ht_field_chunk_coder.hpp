@@ -20,6 +20,7 @@ std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, cons
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     const ChunkFrame F(G, c.cycle, c.box);
+    prefetch_chunk(G, v, c.cycle, c.box, 1);
     rc::Encoder enc(out);
     for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
         const int64_t idx = G.index(x, y, z);

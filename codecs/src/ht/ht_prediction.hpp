@@ -47,12 +47,19 @@ struct ChunkLattice {
     uint64_t neighbour_mean(int64_t s) const {
         const uint32_t* q = mag.data() + s;
         const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
-        uint64_t sum = 0, n = 0;
+        // sum of (w - 1) over the set slots = sum of w - their count
+        uint64_t sum = 0;
+        uint32_t n = 0;
         for (uint32_t w : v) {
-            sum += w ? w - 1 : 0;
+            sum += w;
             n += w != 0;
         }
-        return n ? sum / n : 0;
+        sum -= n;
+        // Most neighbourhoods are all zero residuals, and the rest small: skip
+        // the 64-bit division, which costs several times a 32-bit one.
+        if (sum == 0) return 0;
+        if (sum <= 0xFFFFFFFFu) return uint32_t(sum) / n;
+        return sum / n;
     }
 };
 
@@ -133,6 +140,12 @@ struct ChunkFrame {
         return x - h >= cb[0] && y - h >= cb[1] && z - h >= cb[2] && x + h <= cb[3] && y + h <= cb[4] &&
                z + h <= cb[5];
     }
+    /// Interior, and so is every lattice neighbour of ChunkLattice::neighbour_mean
+    /// that lies in the box: x - 3h .. x + 2h inside the box on every axis.
+    bool deep_interior(int64_t x, int64_t y, int64_t z) const {
+        return x - 3 * h >= cb[0] && y - 3 * h >= cb[1] && z - 3 * h >= cb[2] && x + 2 * h <= cb[3] &&
+               y + 2 * h <= cb[4] && z + 2 * h <= cb[5];
+    }
 };
 
 /// Per odd-axis mask: the coarse neighbours (±h on every odd axis) and the
@@ -167,6 +180,43 @@ struct PredictorStencils {
 inline const PredictorStencils& predictor_stencils() {
     static const PredictorStencils table;
     return table;
+}
+
+/// Asks for the cache lines of a chunk's lattice points (its box grown by
+/// `grow` steps of 2^t, clipped to B) before a coder walks them. The coders pass
+/// over the box once per class in rows of a few points that lie planes apart;
+/// without this the first line of each row is a miss that the range coder's
+/// serial work cannot overlap, and it was most of the error coder's time.
+inline void prefetch_line(const void* p) {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    // GCC deletes loops whose only effect is __builtin_prefetch (C++ loops
+    // without side effects may be assumed to end, then dropped): asm it is.
+    asm volatile("prefetcht0 %0" : : "m"(*static_cast<const char*>(p)));
+#else
+    __builtin_prefetch(p);
+#endif
+}
+
+template <class V>
+void prefetch_chunk(const Geometry& G, const V* data, int t, const std::array<int64_t, 6>& b, int64_t grow) {
+    const int64_t h = int64_t{1} << t;
+    int64_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = std::max<int64_t>(0, (b[a] + h - 1) / h * h - grow * h);
+        hi[a] = std::min<int64_t>(G.box_max[a], b[3 + a] + grow * h) / h * h;
+        if (lo[a] > hi[a]) return;
+    }
+    // Bytes between lattice neighbours along x in the array (G may hold
+    // every grid point, or only those of the lattice).
+    const int64_t stride = (h >> std::min(G.shift, t)) * int64_t(sizeof(V));
+    const int64_t step = std::max<int64_t>(64, stride);
+    for (int64_t z = lo[2]; z <= hi[2]; z += h)
+        for (int64_t y = lo[1]; y <= hi[1]; y += h) {
+            const char* first = reinterpret_cast<const char*>(data + G.index(lo[0], y, z));
+            const char* last = reinterpret_cast<const char*>(data + G.index(hi[0], y, z));
+            for (const char* p = first; p < last; p += step) prefetch_line(p);
+            prefetch_line(last);
+        }
 }
 
 /// Calls f(x, y, z, cls) for the chunk's points in coding order 2: class 0

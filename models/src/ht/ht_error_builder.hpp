@@ -112,6 +112,16 @@ inline Barycentric orient_positive(Tet& t) {
     return b;
 }
 
+/// x / D for the |D| of a tet, which is a power of two: a multiplication by the
+/// exact inverse, which is the same double and spares a division's latency
+/// per diamond (a division otherwise, should D ever not be one).
+struct DivideByD {
+    double D = 1, inverse = 1;
+    bool power_of_two = true;
+    explicit DivideByD(double d = 1) : D(d), inverse(1.0 / d), power_of_two(std::has_single_bit(uint64_t(d))) {}
+    double operator()(double x) const { return power_of_two ? x * inverse : x / D; }
+};
+
 template <class T, class Acc>
 class ErrorBuilder {
 public:
@@ -217,6 +227,7 @@ public:
         };
         std::vector<Entry> entries;
         Acc D = 1;
+        DivideByD divide;
         /// kExactInt: the same entries with their nonzero weights only, grouped
         /// by how many there are (2: on an edge, 3: in a face, 4: inside), as
         /// flat rows {p, v_1, w_1, ..., v_n, w_n}.
@@ -255,6 +266,7 @@ public:
                         points.emplace(off, e);  // shared-face points: same value either way
                     }
         }
+        tpl.divide = DivideByD(double(tpl.D));
         for (auto& [off, e] : points) tpl.entries.push_back(e);
         if constexpr (kExactInt) {
             for (const auto& e : tpl.entries) {
@@ -274,7 +286,7 @@ public:
 
     double eval_template(const Template& tpl, int64_t ci) const {
         const T* base = f_ + ci;
-        if constexpr (kExactInt) return double(eval_exact(tpl, base)) / double(tpl.D);
+        if constexpr (kExactInt) return tpl.divide(double(eval_exact(tpl, base)));
         Acc worst = 0;
         for (const auto& e : tpl.entries) {
             const Acc n = e.w[0] * Acc(base[e.v[0]]) + e.w[1] * Acc(base[e.v[1]]) +
@@ -282,7 +294,7 @@ public:
             const Acc err = abs_value(Acc(base[e.p]) * tpl.D - n);
             worst = err > worst ? err : worst;
         }
-        return to_double_up(worst) / double(tpl.D);
+        return tpl.divide(to_double_up(worst));
     }
 
     /// max |f(p) D - sum w_i f(v_i)| over a point template's entries, in exact
@@ -338,6 +350,7 @@ public:
         std::vector<TetSpans> tets;
         std::vector<Span> spans;
         Acc D = 1;
+        DivideByD divide;
     };
 
     SpanTemplate make_span_template(const Pt& c, const DiamondInfo& d) const {
@@ -380,6 +393,7 @@ public:
             ts.count = st.spans.size() - ts.first;
             st.tets.push_back(ts);
         }
+        st.divide = DivideByD(double(st.D));
         return st;
     }
 
@@ -413,7 +427,7 @@ public:
                 }
             }
         }
-        return to_double_up(worst) / double(D);
+        return st.divide(to_double_up(worst));
     }
 
     double diamond_error(const Pt& c, const DiamondInfo& d) const {
