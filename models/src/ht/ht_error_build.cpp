@@ -16,8 +16,9 @@ void run_all_levels(const ErrorBuilder<T, Acc>& eb, ZeroedVector<float>& out, do
     const HtDomain& d = eb.domain();
     for (int level = 0; level < d.max_level(); ++level) {
         const auto lt = eb.level_templates(level);
-        eb.for_level_centres(level, 0, d.box_max[2], [&](const Pt& c) {
-            out[eb.index(c)] = eb.round_up(eb.error_at(lt, c), slack);
+        eb.for_level_rows(level, 0, d.box_max[2], [&](int32_t x0, int32_t y, int32_t z, int32_t step, int32_t x1) {
+            float* row = &out[std::size_t(eb.index(Pt{0, y, z}))];
+            eb.errors_along_row(lt, x0, y, z, step, x1, [&](int32_t x, double err) { row[x] = eb.round_up(err, slack); });
         });
     }
 }

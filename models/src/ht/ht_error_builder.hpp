@@ -449,6 +449,7 @@ public:
     /// inside the cube. Only offsets are taken from it, never values.
     struct LevelTemplates {
         int level = 0;
+        int log2h = 0;
         bool use = false, point = false;
         std::vector<Template> point_templates;
         std::vector<SpanTemplate> span_templates;
@@ -457,8 +458,9 @@ public:
     LevelTemplates level_templates(int level) const {
         LevelTemplates lt;
         lt.level = level;
+        lt.log2h = dom_.k - 1 - level / 3;
         const int cls = level % 3;
-        const int32_t h = int32_t{1} << (dom_.k - 1 - level / 3);
+        const int32_t h = int32_t{1} << lt.log2h;
         lt.use = h <= kTemplateMaxH && 12 * h <= dom_.L;
         lt.point = h <= kPointTemplateMaxH;
         if (!lt.use) return lt;
@@ -475,27 +477,44 @@ public:
         return lt;
     }
 
-    /// The error (before rounding) of the diamond of lt.level centred at c:
-    /// a template when the diamond lies inside the data box, else a scan. The
-    /// window must hold planes c.z - h .. c.z + h (clipped to B).
-    double error_at(const LevelTemplates& lt, const Pt& c) const {
-        const int32_t h = int32_t{1} << (dom_.k - 1 - lt.level / 3);
+    /// out(x, error before rounding) for the diamonds of lt.level centred at
+    /// (x, y, z), x = x0, x0 + step, ... <= x1: a template when the diamond lies
+    /// inside the data box, else a scan. The window must hold planes z - h ..
+    /// z + h (clipped to B). The per-centre work of the
+    /// finest levels is a handful of points, so what depends on the row only
+    /// (the y and z tests, the template key's y and z parts) is done once here.
+    template <class Out>
+    void errors_along_row(const LevelTemplates& lt, int32_t x0, int32_t y, int32_t z, int32_t step, int32_t x1,
+                          Out&& out) const {
+        const int32_t h = int32_t{1} << lt.log2h;
         const auto& m = dom_.box_max;
-        const bool inside = c[0] - h >= 0 && c[1] - h >= 0 && c[2] - h >= 0 && c[0] + h <= m[0] &&
-                            c[1] + h <= m[1] && c[2] + h <= m[2];
-        if (lt.use && inside) {
-            const int key = ((c[0] / h) & 3) | (((c[1] / h) & 3) << 2) | (((c[2] / h) & 3) << 4);
-            return lt.point ? eval_template(lt.point_templates[key], index(c))
-                            : eval_span_template(lt.span_templates[key], index(c));
+        int32_t in_lo = x1 + 1, in_hi = x1;  // the centres whose diamond is inside B, if any
+        if (lt.use && y - h >= 0 && z - h >= 0 && y + h <= m[1] && z + h <= m[2] && h <= m[0] - h) {
+            in_lo = std::max(x0, h);
+            in_lo = x0 + (in_lo - x0 + step - 1) / step * step;
+            in_hi = std::min(x1, m[0] - h);
         }
-        return diamond_error(c, classify_centre(c, dom_.k));
+        auto scan = [&](int32_t x) { out(x, diamond_error(Pt{x, y, z}, classify_centre(Pt{x, y, z}, dom_.k))); };
+        int32_t x = x0;
+        for (; x <= x1 && x < in_lo; x += step) scan(x);
+        if (in_lo <= in_hi) {
+            const int key_yz = (((y >> lt.log2h) & 3) << 2) | (((z >> lt.log2h) & 3) << 4);
+            const int64_t row = index(Pt{0, y, z});
+            for (; x <= in_hi; x += step) {
+                const int key = ((x >> lt.log2h) & 3) | key_yz;
+                out(x, lt.point ? eval_template(lt.point_templates[key], row + x)
+                                : eval_span_template(lt.span_templates[key], row + x));
+            }
+        }
+        for (; x <= x1; x += step) scan(x);
     }
 
-    /// Calls f(c) for every centre c of `level` in the data box with c.z in
-    /// zlo..zhi, in parallel (each centre once: f may update state of its
-    /// own centre without locks).
+    /// Calls f(x0, y, z, step, x1) for every row of centres of `level` in the
+    /// data box with z in zlo..zhi (centres x0, x0 + step, ... <= x1), in
+    /// parallel (each row once: f may update state of its own centres without
+    /// locks).
     template <class F>
-    void for_level_centres(int level, int64_t zlo, int64_t zhi, F&& f, bool parallel = true) const {
+    void for_level_rows(int level, int64_t zlo, int64_t zhi, F&& f, bool parallel = true) const {
         const auto& m = dom_.box_max;
         const int cls = level % 3;
         const int32_t h = int32_t{1} << (dom_.k - 1 - level / 3);
@@ -514,25 +533,32 @@ public:
             // Over planes and rows of centres: a slab may hold a single plane
             // of the larger diamonds' centres, which must still feed every core.
             const int64_t ny = (m[1] - first[1]) / step + 1;
+            auto row = [&](int64_t iz, int64_t iy) {
+                f(first[0], int32_t(first[1] + iy * step), int32_t(first[2] + iz * step), int32_t(step), m[0]);
+            };
             if (!parallel) {
                 for (int64_t iz = iz0; iz <= iz1; ++iz)
-                    for (int64_t iy = 0; iy < ny; ++iy)
-                        for (int32_t x = first[0]; x <= m[0]; x += int32_t(step))
-                            f(Pt{x, int32_t(first[1] + iy * step), int32_t(first[2] + iz * step)});
+                    for (int64_t iy = 0; iy < ny; ++iy) row(iz, iy);
                 continue;
             }
             tbb::parallel_for(tbb::blocked_range2d<int64_t>(iz0, iz1 + 1, 1, 0, ny, 8),
                               [&](const tbb::blocked_range2d<int64_t>& r) {
-                                  for (int64_t iz = r.rows().begin(); iz < r.rows().end(); ++iz) {
-                                      const int32_t z = int32_t(first[2] + iz * step);
-                                      for (int64_t iy = r.cols().begin(); iy < r.cols().end(); ++iy) {
-                                          const int32_t y = int32_t(first[1] + iy * step);
-                                          for (int32_t x = first[0]; x <= m[0]; x += int32_t(step))
-                                              f(Pt{x, y, z});
-                                      }
-                                  }
+                                  for (int64_t iz = r.rows().begin(); iz < r.rows().end(); ++iz)
+                                      for (int64_t iy = r.cols().begin(); iy < r.cols().end(); ++iy) row(iz, iy);
                               });
         }
+    }
+
+    /// Calls f(c) for every centre c of `level` in the data box with c.z in
+    /// zlo..zhi, as for_level_rows.
+    template <class F>
+    void for_level_centres(int level, int64_t zlo, int64_t zhi, F&& f, bool parallel = true) const {
+        for_level_rows(
+            level, zlo, zhi,
+            [&](int32_t x0, int32_t y, int32_t z, int32_t step, int32_t x1) {
+                for (int32_t x = x0; x <= x1; x += step) f(Pt{x, y, z});
+            },
+            parallel);
     }
 
     static float round_up(double err, double slack) {

@@ -50,9 +50,10 @@ public:
             if (t <= kFineMaxCycle) {
                 // Whole diamonds: the window reaches kReach >= h beyond the slab.
                 const auto& lt = templates_[std::size_t(level)];
-                eb.for_level_centres(level, za, zb, [&](const Pt& c) {
-                    float* plane = sink.error_plane(t, c[2]);
-                    plane[(c[1] >> t) * nx + (c[0] >> t)] = eb.round_up(eb.error_at(lt, c), slack_);
+                eb.for_level_rows(level, za, zb, [&](int32_t x0, int32_t y, int32_t z, int32_t step, int32_t x1) {
+                    float* row = sink.error_plane(t, z) + (y >> t) * nx;
+                    eb.errors_along_row(lt, x0, y, z, step, x1,
+                                        [&](int32_t x, double err) { row[x >> t] = eb.round_up(err, slack_); });
                 });
             } else {
                 const int64_t h = int64_t{1} << t;
