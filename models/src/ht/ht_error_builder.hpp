@@ -332,6 +332,38 @@ public:
         w[1] = w1;
     }
 
+    /// eval_exact for two centres of one template (at b0 and b1): each template
+    /// row is read once for both, and the two sums are independent work.
+    static void eval_exact_pair(const Template& tpl, const T* b0, const T* b1, int64_t out[2]) {
+        const int64_t D = int64_t(tpl.D);
+        int64_t w0 = 0, w1 = 0;
+        eval_exact_pair_group<1>(tpl.exact[1], b0, b1, D, w0, w1);
+        eval_exact_pair_group<2>(tpl.exact[2], b0, b1, D, w0, w1);
+        eval_exact_pair_group<3>(tpl.exact[3], b0, b1, D, w0, w1);
+        eval_exact_pair_group<4>(tpl.exact[4], b0, b1, D, w0, w1);
+        out[0] = w0;
+        out[1] = w1;
+    }
+
+    template <int N>
+    static void eval_exact_pair_group(const std::vector<int64_t>& rows, const T* b0, const T* b1, int64_t D,
+                                      int64_t& w0, int64_t& w1) {
+        constexpr std::size_t kStride = 1 + 2 * N;
+        const std::size_t count = rows.size() / kStride;
+        const int64_t* r = rows.data();
+        for (std::size_t i = 0; i < count; ++i, r += kStride) {
+            int64_t s0 = 0, s1 = 0;
+            for (int k = 0; k < N; ++k) {
+                const int64_t off = r[1 + 2 * k], wt = r[2 + 2 * k];
+                s0 += wt * int64_t(b0[off]);
+                s1 += wt * int64_t(b1[off]);
+            }
+            const int64_t e0 = int64_t(b0[r[0]]) * D - s0, e1 = int64_t(b1[r[0]]) * D - s1;
+            w0 = std::max(w0, e0 < 0 ? -e0 : e0);
+            w1 = std::max(w1, e1 < 0 ? -e1 : e1);
+        }
+    }
+
     /// Span template: per tet of one diamond shape, the row spans of its grid
     /// points with the barycentric numerators at each row's x = 0 (relative to the
     /// centre). Evaluation then costs a few multiply-adds per row and one
@@ -500,6 +532,21 @@ public:
         if (in_lo <= in_hi) {
             const int key_yz = (((y >> lt.log2h) & 3) << 2) | (((z >> lt.log2h) & 3) << 4);
             const int64_t row = index(Pt{0, y, z});
+            if constexpr (kExactInt) {
+                // Centres x and x + 2 step have the same template (x + 4h, same
+                // residue mod 4h): evaluate them as pairs, four centres a round.
+                if (lt.point) {
+                    for (; x + 3 * step <= in_hi; x += 4 * step) {
+                        for (int32_t xa = x; xa <= x + step; xa += step) {
+                            const Template& tpl = lt.point_templates[((xa >> lt.log2h) & 3) | key_yz];
+                            int64_t e[2];
+                            eval_exact_pair(tpl, f_ + row + xa, f_ + row + xa + 2 * step, e);
+                            out(xa, tpl.divide(double(e[0])));
+                            out(xa + 2 * step, tpl.divide(double(e[1])));
+                        }
+                    }
+                }
+            }
             for (; x <= in_hi; x += step) {
                 const int key = ((x >> lt.log2h) & 3) | key_yz;
                 out(x, lt.point ? eval_template(lt.point_templates[key], row + x)
