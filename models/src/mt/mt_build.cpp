@@ -11,6 +11,7 @@
 // threads. With one brick (the volume has at most brick_cells cells per axis, or
 // brick_cells = 0) the build is the single global decimation of earlier versions.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 
@@ -68,6 +69,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     std::array<int64_t, 3> prev_count{0, 0, 0};
     std::vector<mt::BrickMesh> prev;
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
+    const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     for (;;) {
         std::array<int64_t, 3> count;
@@ -89,6 +91,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                     for (int64_t x = 2 * at[0]; x < std::min(2 * at[0] + 2, prev_count[0]); ++x)
                         inputs[b].push_back(&prev[size_t((z * prev_count[1] + y) * prev_count[0] + x)]);
         }
+        const auto t0 = std::chrono::steady_clock::now();
         std::vector<mt::BrickResult> results(bricks);
         arena.execute([&] {
             tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
@@ -123,6 +126,11 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             }
             prev.push_back(std::move(r.mesh));
         }
+        if (stats)
+            std::fprintf(stderr, "mt build: pass of %zu bricks of %lld cells: %.2f s, %zu collapses so far\n", bricks,
+                         (long long)size,
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                         m.updates_.size());
         prev_count = count;
         if (bricks == 1) break;
         size *= 2;
@@ -132,7 +140,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         for (const auto& t : m.base_)
             m.history_.front().base.push_back(
                 {nodes.node[t[0]], nodes.node[t[1]], nodes.node[t[2]], nodes.node[t[3]]});
-    if (std::getenv("TETLOD_MT_STATS"))
+    if (stats)
         std::fprintf(stderr, "mt build: %zu collapses, %llu evaluations (%llu points)\n", m.updates_.size(),
                      (unsigned long long)evaluations, (unsigned long long)relocated);
     m.finalize();

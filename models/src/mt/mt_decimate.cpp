@@ -383,8 +383,9 @@ struct BrickDecimator {
                        double cutoff = std::numeric_limits<double>::infinity()) {
         ++n_eval;
         gather_star(w, star_w);
-        gather_points(w);
-        n_pts += pts.size();
+        // The points are gathered only when a target gets past the face errors of the
+        // link: when those alone exceed the cutoff, no point is needed (a lower bound).
+        bool gathered = false;
         double link_max = 0;
         nbrs.clear();
         for (uint32_t t : star_w) {
@@ -403,14 +404,25 @@ struct BrickDecimator {
         }
         // Rank the geometrically legal targets by shape first: a later target then
         // wins only with a strictly smaller error, so ties stop scanning at once.
+        // When the link's face errors alone exceed the cutoff, every target is cut there:
+        // the answer is that lower bound if some target is legal, so the first legal one
+        // settles it and no shape is ranked (most evaluations end here).
+        const bool all_cut = link_max > cutoff;
         ranked.clear();
         for (uint32_t s : nbrs) {
             if ((planes[w] & ~planes[s]) != 0 || frozen[s]) continue;
             if (!make_new_tets(w, s, false)) continue;
             double q = 0;
-            for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
+            if (!all_cut || opt.max_shape_ratio > 0)
+                for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
             if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
             ranked.push_back({q, s});
+            if (all_cut) break;
+        }
+        if (all_cut) {
+            Candidate c;
+            if (!ranked.empty()) c.partial = true, c.cost = link_max, c.quality = -INFINITY;
+            return c;
         }
         std::sort(ranked.begin(), ranked.end());
         std::vector<uint32_t> excluded;
@@ -426,6 +438,11 @@ struct BrickDecimator {
                 if (over_limit(cost)) {
                     if (!best.ok) cut = true, lower = std::min(lower, cost);
                     continue;
+                }
+                if (!gathered) {
+                    gather_points(w);
+                    n_pts += pts.size();
+                    gathered = true;
                 }
                 make_new_tets(w, s);
                 bool ok = true, over = false;
