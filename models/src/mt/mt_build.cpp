@@ -11,6 +11,7 @@
 // threads. With one brick (the volume has at most brick_cells cells per axis, or
 // brick_cells = 0) the build is the single global decimation of earlier versions.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -92,10 +93,15 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                         inputs[b].push_back(&prev[size_t((z * prev_count[1] + y) * prev_count[0] + x)]);
         }
         const auto t0 = std::chrono::steady_clock::now();
+        std::atomic<int> in_flight{0}, most_in_flight{0};  // statistics only
         std::vector<mt::BrickResult> results(bricks);
         arena.execute([&] {
             tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
+                const int now = ++in_flight;
+                for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
+                }
                 results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
+                --in_flight;
             });
         });
         prev.clear();
@@ -127,8 +133,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(r.mesh));
         }
         if (stats)
-            std::fprintf(stderr, "mt build: pass of %zu bricks of %lld cells: %.2f s, %zu collapses so far\n", bricks,
-                         (long long)size,
+            std::fprintf(stderr, "mt build: pass of %zu bricks of %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",
+                         bricks, (long long)size, most_in_flight.load(),
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size());
         prev_count = count;

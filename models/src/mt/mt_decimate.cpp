@@ -70,11 +70,15 @@ struct BrickDecimator {
     std::vector<uint8_t> frozen;  // on a face of the brick inside the volume
 
     // Tets.
-    std::vector<std::array<uint32_t, 4>> tv;
-    std::vector<uint32_t> tnext;  // corner chains: 4 per tet
-    std::vector<uint32_t> thead;  // owned point list
-    std::vector<float> terr;      // closed error
-    std::vector<std::array<float, 4>> tferr;  // closed error of the face opposite each corner
+    // Tets: one cache line each, so that walking a star costs one miss per tet.
+    struct alignas(64) TetRec {
+        std::array<uint32_t, 4> v{};                         // vertices, positively oriented
+        std::array<uint32_t, 4> next{kNil, kNil, kNil, kNil};  // corner chains
+        std::array<float, 4> ferr{0, 0, 0, 0};               // closed error of the face opposite each corner
+        float err = 0;                                       // closed error
+        uint32_t head = kNil;                                // owned point list
+    };
+    std::vector<TetRec> tets;
     std::vector<uint32_t> free_tets;
 
     // Vertices / grid points.
@@ -114,7 +118,7 @@ struct BrickDecimator {
     // ---- corner chains -------------------------------------------------------
     template <class F>
     void for_star(uint32_t v, F f) const {
-        for (uint32_t c = vhead[v]; c != kNil; c = tnext[c]) f(c >> 2, c & 3);
+        for (uint32_t c = vhead[v]; c != kNil; c = tets[(c) >> 2].next[(c) & 3]) f(c >> 2, c & 3);
     }
     void gather_star(uint32_t v, std::vector<uint32_t>& out) const {
         out.clear();
@@ -122,11 +126,11 @@ struct BrickDecimator {
     }
     void unlink_corner(uint32_t v, uint32_t corner) {
         uint32_t* link = &vhead[v];
-        while (*link != corner) link = &tnext[*link];
-        *link = tnext[corner];
+        while (*link != corner) link = &tets[(*link) >> 2].next[(*link) & 3];
+        *link = tets[(corner) >> 2].next[(corner) & 3];
     }
     void link_corner(uint32_t v, uint32_t corner) {
-        tnext[corner] = vhead[v];
+        tets[(corner) >> 2].next[(corner) & 3] = vhead[v];
         vhead[v] = corner;
     }
     static int slot_of(const std::array<uint32_t, 4>& t, uint32_t v) {
@@ -190,10 +194,7 @@ struct BrickDecimator {
         }
         pnext.assign(n, kNil);
         if (input.empty()) {
-            tv = mt::reference_tets(grid, lo);
-            thead.assign(tv.size(), kNil);
-            terr.assign(tv.size(), 0.0f);
-            tferr.assign(tv.size(), {0, 0, 0, 0});
+            for (const auto& t : mt::reference_tets(grid, lo)) tets.push_back(TetRec{t});
             alive.assign(n, 1);
         } else {
             alive.assign(n, 0);
@@ -201,9 +202,9 @@ struct BrickDecimator {
                 for (size_t t = 0; t < b->tets.size(); ++t) {
                     std::array<uint32_t, 4> lt;
                     for (int i = 0; i < 4; ++i) alive[lt[i] = local(b->tets[t][i])] = 1;
-                    tv.push_back(lt);
-                    terr.push_back(b->err[t]);
-                    tferr.push_back(b->face_err[t]);
+                    TetRec rec{lt};
+                    rec.err = b->err[t];
+                    rec.ferr = b->face_err[t];
                     // Keep each point list in its order (the evaluation's early exits see it).
                     uint32_t head = kNil, *tail = &head;
                     for (uint32_t k = b->point_start[t]; k < b->point_start[t + 1]; ++k) {
@@ -212,14 +213,14 @@ struct BrickDecimator {
                         tail = &pnext[p];
                     }
                     *tail = kNil;
-                    thead.push_back(head);
+                    rec.head = head;
+                    tets.push_back(rec);
                 }
         }
-        const size_t m = tv.size();
-        tnext.assign(4 * m, kNil);
+        const size_t m = tets.size();
         vhead.assign(n, kNil);
         for (size_t t = m; t-- > 0;)
-            for (int i = 0; i < 4; ++i) link_corner(tv[t][i], uint32_t(4 * t + i));
+            for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
         stamp.assign(n, 0);
         live_seq.assign(n, 0);
     }
@@ -248,7 +249,7 @@ struct BrickDecimator {
             std::array<uint32_t, 3> o{};
             int k = 0;
             for (int i = 0; i < 4; ++i)
-                if (i != int(slot)) o[k++] = tv[t][i];
+                if (i != int(slot)) o[k++] = tets[t].v[i];
             std::sort(o.begin(), o.end());
             L.v2.push_back(o);
             L.v1.push_back({o[0], o[1]}), L.v1.push_back({o[0], o[2]}), L.v1.push_back({o[1], o[2]});
@@ -284,11 +285,11 @@ struct BrickDecimator {
         auto& e1 = e1_;
         e0.clear(), e1.clear();
         for_star(w, [&](uint32_t t, uint32_t) {
-            if (slot_of(tv[t], s) < 0) return;
+            if (slot_of(tets[t].v, s) < 0) return;
             std::array<uint32_t, 2> ab{};
             int k = 0;
             for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != w && tv[t][i] != s) ab[k++] = tv[t][i];
+                if (tets[t].v[i] != w && tets[t].v[i] != s) ab[k++] = tets[t].v[i];
             if (ab[0] > ab[1]) std::swap(ab[0], ab[1]);
             e1.push_back(ab);
             e0.push_back(ab[0]), e0.push_back(ab[1]);
@@ -330,7 +331,7 @@ struct BrickDecimator {
         ntv.clear(), nb.clear();
         old2new.assign(star_w.size(), -1);
         for (size_t i = 0; i < star_w.size(); ++i) {
-            auto t = tv[star_w[i]];
+            auto t = tets[star_w[i]].v;
             if (slot_of(t, s) >= 0) continue;
             t[slot_of(t, w)] = s;
             const auto p = pts_of(t);
@@ -360,7 +361,7 @@ struct BrickDecimator {
         pts.clear(), pfrom.clear();
         pts.push_back(w), pfrom.push_back(kNil);
         for (size_t i = 0; i < star_w.size(); ++i)
-            for (uint32_t p = thead[star_w[i]]; p != kNil; p = pnext[p]) pts.push_back(p), pfrom.push_back(uint32_t(i));
+            for (uint32_t p = tets[star_w[i]].head; p != kNil; p = pnext[p]) pts.push_back(p), pfrom.push_back(uint32_t(i));
     }
 
     /// Best target of w by (cost, shape ratio, id); with check_link, the best one that
@@ -389,10 +390,10 @@ struct BrickDecimator {
         double link_max = 0;
         nbrs.clear();
         for (uint32_t t : star_w) {
-            const int sw = slot_of(tv[t], w);
-            link_max = std::max(link_max, double(tferr[t][sw]));
+            const int sw = slot_of(tets[t].v, w);
+            link_max = std::max(link_max, double(tets[t].ferr[sw]));
             for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != w) nbrs.push_back(tv[t][i]);
+                if (tets[t].v[i] != w) nbrs.push_back(tets[t].v[i]);
         }
         std::sort(nbrs.begin(), nbrs.end());
         nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
@@ -490,9 +491,9 @@ struct BrickDecimator {
         MtHistory* hist = opt.record_history ? &out.history : nullptr;
         if (hist) {
             std::vector<MtHistory::Tet> before;
-            for (uint32_t t : star_w) before.push_back(node_tet(tv[t]));
+            for (uint32_t t : star_w) before.push_back(node_tet(tets[t].v));
             for_star(s, [&](uint32_t t, uint32_t) {
-                if (slot_of(tv[t], w) < 0) before.push_back(node_tet(tv[t]));
+                if (slot_of(tets[t].v, w) < 0) before.push_back(node_tet(tets[t].v));
             });
             hist->before.push_back(std::move(before));
         }
@@ -503,21 +504,21 @@ struct BrickDecimator {
         std::vector<bool> nexact(ntv.size(), true);
         for (size_t i = 0; i < star_w.size(); ++i) {
             const uint32_t t = star_w[i];
-            const int sw = slot_of(tv[t], w);
+            const int sw = slot_of(tets[t].v, w);
             if (old2new[i] >= 0) {
-                nf[old2new[i]][sw] = tferr[t][sw];
+                nf[old2new[i]][sw] = tets[t].ferr[sw];
                 continue;
             }
             // Edge tet (w,s,a,b): its face sab (opposite w) is a face of one new tet.
             std::array<uint32_t, 2> ab{};
             int k = 0;
             for (int j = 0; j < 4; ++j)
-                if (tv[t][j] != w && tv[t][j] != s) ab[k++] = tv[t][j];
+                if (tets[t].v[j] != w && tets[t].v[j] != s) ab[k++] = tets[t].v[j];
             for (size_t j = 0; j < ntv.size(); ++j) {
                 const int sa = slot_of(ntv[j], ab[0]), sb = slot_of(ntv[j], ab[1]);
                 if (sa < 0 || sb < 0) continue;
                 const int opp = 6 - sa - sb - slot_of(ntv[j], s);
-                nf[j][opp] = std::max(nf[j][opp], tferr[t][sw]);
+                nf[j][opp] = std::max(nf[j][opp], tets[t].ferr[sw]);
             }
         }
         // Unlink the old star of w.
@@ -525,18 +526,18 @@ struct BrickDecimator {
             const uint32_t t = star_w[i];
             if (old2new[i] >= 0) continue;
             for (int j = 0; j < 4; ++j)
-                if (tv[t][j] != w) unlink_corner(tv[t][j], 4 * t + j);
-            thead[t] = kNil;
+                if (tets[t].v[j] != w) unlink_corner(tets[t].v[j], 4 * t + j);
+            tets[t].head = kNil;
             free_tets.push_back(t);
         }
         std::vector<uint32_t> newid(ntv.size());
         for (size_t i = 0; i < star_w.size(); ++i) {
             const uint32_t t = star_w[i];
             if (old2new[i] < 0) continue;
-            const int sw = slot_of(tv[t], w);
-            tv[t][sw] = s;
+            const int sw = slot_of(tets[t].v, w);
+            tets[t].v[sw] = s;
             link_corner(s, 4 * t + sw);
-            thead[t] = kNil;
+            tets[t].head = kNil;
             newid[old2new[i]] = t;
         }
         vhead[w] = kNil;
@@ -547,8 +548,8 @@ struct BrickDecimator {
             const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
             const int j = locate(p, guess, d);
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
-            pnext[p] = thead[newid[j]];
-            thead[newid[j]] = p;
+            pnext[p] = tets[newid[j]].head;
+            tets[newid[j]].head = p;
             auto account = [&](int jj, const std::array<int64_t, 4>& dd) {
                 bool exact = true;
                 const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
@@ -569,8 +570,8 @@ struct BrickDecimator {
             const uint32_t t = newid[j];
             float e = mt::round_up_float(ne[j], nexact[j]);
             for (int k = 0; k < 4; ++k) e = std::max(e, nf[j][k]);
-            terr[t] = e;
-            tferr[t] = nf[j];
+            tets[t].err = e;
+            tets[t].ferr = nf[j];
         }
         // The new node at s.
         const uint32_t k = uint32_t(out.updates.size());
@@ -579,9 +580,9 @@ struct BrickDecimator {
         gather_star(s, star_s_scratch);
         std::vector<uint32_t> link;
         for (uint32_t t : star_s_scratch) {
-            err = std::max(err, terr[t]);
+            err = std::max(err, tets[t].err);
             for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != s) link.push_back(tv[t][i]);
+                if (tets[t].v[i] != s) link.push_back(tets[t].v[i]);
         }
         std::sort(link.begin(), link.end());
         link.erase(std::unique(link.begin(), link.end()), link.end());
@@ -589,7 +590,7 @@ struct BrickDecimator {
         label += 1;
         // Split mask over the canonically ordered star.
         mt::star_order(star_s_scratch, s, coord[s], coord[w], grid,
-                       [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; }, mask_perm,
+                       [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tets[t].v; }, mask_perm,
                        mask_keys);
         MtUpdate u;
         u.w = global(w), u.s = global(s), u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
@@ -610,7 +611,7 @@ struct BrickDecimator {
         live_seq[w] = 0;
         if (hist) {
             std::vector<MtHistory::Tet> after;
-            for (uint32_t t : star_s_scratch) after.push_back(node_tet(tv[t]));
+            for (uint32_t t : star_s_scratch) after.push_back(node_tet(tets[t].v));
             hist->after.push_back(std::move(after));
             hist->update_of_node.push_back(k);
         }
@@ -652,16 +653,16 @@ struct BrickDecimator {
         out.evaluations = n_eval;
         out.relocated_points = n_pts;
         // The decimated mesh, in slot order, and the node state of the free points.
-        std::vector<uint8_t> dead(tv.size(), 0);
+        std::vector<uint8_t> dead(tets.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;
         BrickMesh& mesh = out.mesh;
         mesh.point_start.push_back(0);
-        for (uint32_t t = 0; t < tv.size(); ++t) {
+        for (uint32_t t = 0; t < tets.size(); ++t) {
             if (dead[t]) continue;
-            mesh.tets.push_back({global(tv[t][0]), global(tv[t][1]), global(tv[t][2]), global(tv[t][3])});
-            mesh.err.push_back(terr[t]);
-            mesh.face_err.push_back(tferr[t]);
-            for (uint32_t p = thead[t]; p != kNil; p = pnext[p]) mesh.points.push_back(global(p));
+            mesh.tets.push_back({global(tets[t].v[0]), global(tets[t].v[1]), global(tets[t].v[2]), global(tets[t].v[3])});
+            mesh.err.push_back(tets[t].err);
+            mesh.face_err.push_back(tets[t].ferr);
+            for (uint32_t p = tets[t].head; p != kNil; p = pnext[p]) mesh.points.push_back(global(p));
             mesh.point_start.push_back(uint32_t(mesh.points.size()));
         }
         for (uint32_t i = 0; i < n; ++i) {
