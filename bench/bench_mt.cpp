@@ -4,8 +4,11 @@
 // tets in a box and an isovalue query, average tets added per split, and the shape
 // quality (circumradius / shortest edge, physical coordinates) of MT meshes.
 //
-// Usage: bench_mt [DATA_DIR] [--only NAME] [--big] [--no-ht] [--shape-cap R]
-//   --big adds bucky 128^3; --shape-cap refuses collapses creating tets with ratio > R.
+// Usage: bench_mt [DATA_DIR] [--only NAME] [--big] [--no-ht] [--shape-cap R] [--threads T]
+//                 [--brick-cells B] [--build-only]
+//   --big adds bucky 128^3; --shape-cap refuses collapses creating tets with ratio > R;
+//   --threads / --brick-cells set MtBuildOptions (0 = TBB default / one brick);
+//   --build-only skips the queries. Peak MB is the process's (run one dataset with --only).
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -77,13 +80,16 @@ double mean_ratio(const TetMesh& m) {
 
 int main(int argc, char** argv) {
     std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : TETLOD_DEFAULT_DATA_DIR, only;
-    bool big = false, no_ht = false;
+    bool big = false, no_ht = false, build_only = false;
     MtBuildOptions bopt;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--only" && i + 1 < argc) only = argv[++i];
         else if (a == "--big") big = true;
         else if (a == "--no-ht") no_ht = true;
+        else if (a == "--build-only") build_only = true;
+        else if (a == "--threads" && i + 1 < argc) bopt.threads = std::atoi(argv[++i]);
+        else if (a == "--brick-cells" && i + 1 < argc) bopt.brick_cells = std::atoi(argv[++i]);
         else if (a == "--shape-cap" && i + 1 < argc) bopt.max_shape_ratio = std::atof(argv[++i]);
         else dir = a;
     }
@@ -96,8 +102,8 @@ int main(int argc, char** argv) {
         {"m4_total_density_25x22x31_float32.raw", {25, 22, 31}, ValueType::F32, false},
         {"bucky_128x128x128_uint8.raw", {128, 128, 128}, ValueType::U8, true},
     };
-    std::printf("%-36s %8s %8s %8s %9s %7s %7s %6s\n", "dataset", "build_s", "peak_MB", "updates", "base_tets",
-                "B/pt", "B/pt+f", "ins/sp");
+    std::printf("%-36s %8s %8s %8s %8s %9s %7s %7s %6s\n", "dataset", "build_s", "pts/s", "peak_MB", "updates",
+                "base_tets", "B/pt", "B/pt+f", "ins/sp");
     for (const Dataset& d : sets) {
         if (d.big && !big) continue;
         if (!only.empty() && std::string(d.file).find(only) == std::string::npos) continue;
@@ -120,11 +126,12 @@ int main(int argc, char** argv) {
         MtExtractStats fs;
         mt.extract(full, &fs);
         const double ins = fs.splits ? double(fs.tets_inserted - fs.tets_removed) / double(fs.splits) : 0;
-        std::printf("%-36s %8.2f %8.0f %8zu %9zu %7.2f %7.2f %6.2f   (removed %.1f, inserted %.1f per split)\n",
-                    d.file, build_s, peak, mt.updates().size(), mt.base_tets().size(), enc.size() / n,
+        std::printf("%-36s %8.2f %8.0f %8.0f %8zu %9zu %7.2f %7.2f %6.2f   (removed %.1f, inserted %.1f per split)\n",
+                    d.file, build_s, n / build_s, peak, mt.updates().size(), mt.base_tets().size(), enc.size() / n,
                     encf.size() / n, ins, double(fs.tets_removed) / double(fs.splits),
                     double(fs.tets_inserted) / double(fs.splits));
         std::fflush(stdout);
+        if (build_only) continue;
         const auto r = v.range();
         const double span = r[1] - r[0];
         std::unique_ptr<HtModel> ht;

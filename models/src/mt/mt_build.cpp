@@ -1,603 +1,45 @@
-// MT builder: bottom-up decimation of the 5-tets-per-cell reference mesh by
-// half-edge collapses (docs/mt.md §2). Legality: box-feature rule,
-// strictly positive orientation of every new tet (exact int64), link condition
-// with a ghost vertex for the boundary (Dey, Edelsbrunner, Guha, Nekhayev,
-// "Topology preserving edge contraction", 1999). Error: every removed grid point is
-// kept in the list of one tet containing it; the closed error of each tet and of
-// each of its faces is maintained exactly, so an update's error bounds |f - L|
-// at every grid point of every tet of its star (docs/mt.md §2).
+// MT build: the volume is decimated in bricks, in passes of growing bricks, in the
+// spirit of out-of-core simplification (Lindstrom, "Out-of-core simplification of
+// large polygonal models", SIGGRAPH 2000; Cignoni et al., "External memory management
+// and simplification of huge meshes", TVCG 2003), but with exact errors and a valid MT
+// (docs/mt.md §2, "Bricks"). Pass 0 decimates bricks of `brick_cells` cells with their
+// inner faces frozen; each later pass merges 2x2x2 bricks of the previous one, which
+// unfreezes the faces between them; the last pass is one brick, the whole volume.
 //
-// Order: a heap of one live entry per vertex keyed by (cost, shape ratio, id),
-// re-evaluated lazily when its star changed (docs/mt.md §2, "Order"): deterministic.
+// Determinism: a brick's result depends only on its input (mt_decimate.hpp), and the
+// results are merged in brick raster order, so the model is the same for any number of
+// threads. With one brick (the volume has at most brick_cells cells per axis, or
+// brick_cells = 0) the build is the single global decimation of earlier versions.
 #include <algorithm>
-#include <cmath>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <limits>
-#include <queue>
 
-#include "tetlod/models/detail/mt_geometry.hpp"
-#include "tetlod/models/mt/mt_model.hpp"
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "mt_decimate.hpp"
 #include "tetlod/core/error.hpp"
 
 namespace tetlod {
 
-using mt::Bary;
-using mt::kNil;
-using mt::Pt;
-
 namespace {
-constexpr uint32_t kOmega = 0xFFFFFFFEu;  // ghost vertex (sorts after every grid index)
 
-struct Entry {
-    double cost;
-    double quality;
-    uint32_t w, s, seq, stamp;
-    bool dirty;
-    bool partial;  // cost is a lower bound: re-evaluate when popped
-    // std::priority_queue pops the largest: invert for a min-heap on (cost, quality, w, seq).
-    bool operator<(const Entry& o) const {
-        if (cost != o.cost) return cost > o.cost;
-        if (quality != o.quality) return quality > o.quality;
-        if (w != o.w) return w > o.w;
-        return seq > o.seq;
+/// Appends `count` bits of `src` at bit offset `at` of `dst` (which has exactly `at` bits).
+void append_bits(std::vector<uint64_t>& dst, uint64_t at, const std::vector<uint64_t>& src, uint64_t count) {
+    dst.resize(size_t((at + count + 63) / 64), 0);
+    const uint64_t shift = at & 63;
+    for (uint64_t i = 0; i * 64 < count; ++i) {
+        uint64_t word = src[i];
+        if (count - i * 64 < 64) word &= (uint64_t(1) << (count - i * 64)) - 1;
+        const uint64_t pos = (at >> 6) + i;
+        dst[pos] |= word << shift;
+        if (shift != 0 && pos + 1 < dst.size()) dst[pos + 1] |= word >> (64 - shift);
     }
-};
+}
 
-struct Candidate {
-    bool ok = false;
-    bool partial = false;  // every target costs more than the cutoff; cost is a lower bound
-    double cost = 0, quality = 0;
-    uint32_t s = kNil;
-};
 }  // namespace
-
-struct MtBuilder {
-    const Volume& vol;
-    const MtBuildOptions& opt;
-    mt::Grid grid;
-    uint32_t n;
-    bool int_data;
-    bool small_int;  // |values| < 2^20: numerators fit in int64
-    std::vector<Pt> coord;
-    std::vector<double> val;
-    std::vector<int64_t> ival;
-    std::vector<uint8_t> planes;
-
-    // Tets.
-    std::vector<std::array<uint32_t, 4>> tv;
-    std::vector<uint32_t> tnext;  // corner chains: 4 per tet
-    std::vector<uint32_t> thead;  // owned point list
-    std::vector<float> terr;      // closed error
-    std::vector<std::array<float, 4>> tferr;  // closed error of the face opposite each corner
-    std::vector<uint32_t> free_tets;
-
-    // Vertices / grid points.
-    std::vector<uint32_t> vhead;  // first corner
-    std::vector<uint32_t> pnext;  // owned point list link
-    std::vector<uint32_t> stamp, live_seq;
-    std::vector<uint8_t> alive;
-    std::vector<uint32_t> cur_node, cur_label;
-    std::vector<float> cur_err;
-
-    MtModel& model;
-    uint32_t seq_counter = 0;
-    std::priority_queue<Entry> heap;
-
-    // Scratch.
-    std::vector<uint32_t> star_w, pts, pfrom, nbrs;
-    std::vector<std::array<uint32_t, 4>> ntv;
-    std::vector<Bary> nb;
-    std::vector<int> old2new;
-    std::vector<std::pair<double, uint32_t>> ranked;
-
-    MtBuilder(const Volume& v, const MtBuildOptions& o, MtModel& m)
-        : vol(v), opt(o), grid(v.dims), n(uint32_t(v.count())), model(m) {}
-
-    // ---- corner chains -------------------------------------------------------
-    template <class F>
-    void for_star(uint32_t v, F f) const {
-        for (uint32_t c = vhead[v]; c != kNil; c = tnext[c]) f(c >> 2, c & 3);
-    }
-    void gather_star(uint32_t v, std::vector<uint32_t>& out) const {
-        out.clear();
-        for_star(v, [&](uint32_t t, uint32_t) { out.push_back(t); });
-    }
-    void unlink_corner(uint32_t v, uint32_t corner) {
-        uint32_t* link = &vhead[v];
-        while (*link != corner) link = &tnext[*link];
-        *link = tnext[corner];
-    }
-    void link_corner(uint32_t v, uint32_t corner) {
-        tnext[corner] = vhead[v];
-        vhead[v] = corner;
-    }
-    static int slot_of(const std::array<uint32_t, 4>& t, uint32_t v) {
-        for (int i = 0; i < 4; ++i)
-            if (t[i] == v) return i;
-        return -1;
-    }
-    std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
-        return {coord[t[0]], coord[t[1]], coord[t[2]], coord[t[3]]};
-    }
-
-    // ---- exact deviation of point p from the interpolant of a tet -----------
-    // d: barycentric numerators of p (sum = det > 0). Returns the error as a double
-    // and whether it is exact.
-    double deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
-                     int64_t det, bool& exact) const {
-        if (int_data) {
-            __int128 num = __int128(ival[p]) * det;
-            for (int i = 0; i < 4; ++i) num -= __int128(ival[t[i]]) * d[i];
-            if (num < 0) num = -num;
-            if (num == 0) return 0.0;
-            exact = exact && (num % det == 0) && num / det < (__int128(1) << 53);
-            return double(num) / double(det);
-        }
-        double l = 0;
-        for (int i = 0; i < 4; ++i) l += val[t[i]] * double(d[i]);
-        exact = false;
-        return std::fabs(val[p] - l / double(det));
-    }
-
-    // ---- setup ---------------------------------------------------------------
-    void init() {
-        int_data = !is_float(vol.type);
-        small_int = vol.type == ValueType::U8 || vol.type == ValueType::I8 || vol.type == ValueType::U16 ||
-                    vol.type == ValueType::I16;
-        coord.resize(n);
-        planes.resize(n);
-        val.resize(n);
-        if (int_data) ival.resize(n);
-        for (uint32_t i = 0; i < n; ++i) {
-            coord[i] = grid.coord(i);
-            planes[i] = grid.planes(coord[i]);
-            val[i] = vol.value(i);
-            if (int_data) ival[i] = int64_t(val[i]);
-        }
-        tv = mt::reference_tets(grid);
-        const size_t m = tv.size();
-        tnext.assign(4 * m, kNil);
-        thead.assign(m, kNil);
-        terr.assign(m, 0.0f);
-        tferr.assign(m, {0, 0, 0, 0});
-        vhead.assign(n, kNil);
-        for (size_t t = m; t-- > 0;)
-            for (int i = 0; i < 4; ++i) link_corner(tv[t][i], uint32_t(4 * t + i));
-        pnext.assign(n, kNil);
-        stamp.assign(n, 0);
-        live_seq.assign(n, 0);
-        alive.assign(n, 1);
-        cur_node.resize(n);
-        for (uint32_t i = 0; i < n; ++i) cur_node[i] = i;
-        cur_label.assign(n, 0);
-        cur_err.assign(n, 0.0f);
-    }
-
-    void push_dirty(uint32_t w, double cost) {
-        live_seq[w] = ++seq_counter;
-        heap.push(Entry{cost, -INFINITY, w, kNil, live_seq[w], stamp[w], true, false});
-    }
-
-    // ---- link condition (docs/mt.md §2, "Legality") -------------------------
-    struct Link {
-        std::vector<uint32_t> v0;
-        std::vector<std::array<uint32_t, 2>> v1;
-        std::vector<std::array<uint32_t, 3>> v2;
-        std::vector<std::array<uint32_t, 2>> bfaces;  // boundary faces (v,a,b), a<b
-        std::vector<std::array<uint32_t, 2>> faces;   // scratch
-    };
-    std::vector<uint32_t> e0_, i0_;
-    std::vector<std::array<uint32_t, 2>> e1_, i1_;
-    std::vector<std::array<uint32_t, 3>> i2_;
-    void build_link(uint32_t v, Link& L) const {
-        L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
-        auto& faces = L.faces;
-        faces.clear();
-        for_star(v, [&](uint32_t t, uint32_t slot) {
-            std::array<uint32_t, 3> o{};
-            int k = 0;
-            for (int i = 0; i < 4; ++i)
-                if (i != int(slot)) o[k++] = tv[t][i];
-            std::sort(o.begin(), o.end());
-            L.v2.push_back(o);
-            L.v1.push_back({o[0], o[1]}), L.v1.push_back({o[0], o[2]}), L.v1.push_back({o[1], o[2]});
-            L.v0.push_back(o[0]), L.v0.push_back(o[1]), L.v0.push_back(o[2]);
-            faces.push_back({o[0], o[1]}), faces.push_back({o[0], o[2]}), faces.push_back({o[1], o[2]});
-        });
-        std::sort(faces.begin(), faces.end());
-        for (size_t i = 0; i < faces.size();) {
-            size_t j = i;
-            while (j < faces.size() && faces[j] == faces[i]) ++j;
-            if (j - i == 1) L.bfaces.push_back(faces[i]);
-            i = j;
-        }
-        if (!L.bfaces.empty()) L.v0.push_back(kOmega);
-        for (const auto& f : L.bfaces) {
-            L.v1.push_back({f[0], kOmega}), L.v1.push_back({f[1], kOmega});
-            L.v2.push_back({f[0], f[1], kOmega});
-        }
-        auto uniq = [](auto& x) {
-            std::sort(x.begin(), x.end());
-            x.erase(std::unique(x.begin(), x.end()), x.end());
-        };
-        uniq(L.v0), uniq(L.v1), uniq(L.v2);
-    }
-    Link lw_, ls_;
-    uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
-    bool link_ok(uint32_t w, uint32_t s) {
-        ++n_link;
-        build_link(w, lw_);
-        build_link(s, ls_);
-        // Link of edge ws.
-        auto& e0 = e0_;
-        auto& e1 = e1_;
-        e0.clear(), e1.clear();
-        for_star(w, [&](uint32_t t, uint32_t) {
-            if (slot_of(tv[t], s) < 0) return;
-            std::array<uint32_t, 2> ab{};
-            int k = 0;
-            for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != w && tv[t][i] != s) ab[k++] = tv[t][i];
-            if (ab[0] > ab[1]) std::swap(ab[0], ab[1]);
-            e1.push_back(ab);
-            e0.push_back(ab[0]), e0.push_back(ab[1]);
-        });
-        bool boundary_edge = false;
-        for (const auto& f : lw_.bfaces)
-            if (f[0] == s || f[1] == s) {
-                const uint32_t a = f[0] == s ? f[1] : f[0];
-                e1.push_back({a, kOmega});
-                e0.push_back(a);
-                boundary_edge = true;
-            }
-        if (boundary_edge) e0.push_back(kOmega);
-        std::sort(e0.begin(), e0.end());
-        e0.erase(std::unique(e0.begin(), e0.end()), e0.end());
-        std::sort(e1.begin(), e1.end());
-        e1.erase(std::unique(e1.begin(), e1.end()), e1.end());
-        auto& i0 = i0_;
-        i0.clear();
-        std::set_intersection(lw_.v0.begin(), lw_.v0.end(), ls_.v0.begin(), ls_.v0.end(),
-                              std::back_inserter(i0));
-        if (i0 != e0) return ++n_link_fail, false;
-        auto& i1 = i1_;
-        i1.clear();
-        std::set_intersection(lw_.v1.begin(), lw_.v1.end(), ls_.v1.begin(), ls_.v1.end(),
-                              std::back_inserter(i1));
-        if (i1 != e1) return ++n_link_fail, false;
-        auto& i2 = i2_;
-        i2.clear();
-        std::set_intersection(lw_.v2.begin(), lw_.v2.end(), ls_.v2.begin(), ls_.v2.end(),
-                              std::back_inserter(i2));
-        if (!i2.empty()) ++n_link_fail;
-        return i2.empty();
-    }
-
-    // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
-    // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
-    bool make_new_tets(uint32_t w, uint32_t s, bool bary = true) {
-        ntv.clear(), nb.clear();
-        old2new.assign(star_w.size(), -1);
-        for (size_t i = 0; i < star_w.size(); ++i) {
-            auto t = tv[star_w[i]];
-            if (slot_of(t, s) >= 0) continue;
-            t[slot_of(t, w)] = s;
-            const auto p = pts_of(t);
-            if (!bary) {
-                if (mt::orient(p[0], p[1], p[2], p[3]) <= 0) return false;
-            } else {
-                Bary b;
-                b.set(p);
-                if (b.det <= 0) return false;
-                nb.push_back(b);
-            }
-            old2new[i] = int(ntv.size());
-            ntv.push_back(t);
-        }
-        return true;
-    }
-    // Index of the first new tet containing p (guess first), -1 if none.
-    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) const {
-        const Pt& q = coord[p];
-        if (guess >= 0 && nb[guess].locate(q, d)) return guess;
-        for (size_t j = 0; j < nb.size(); ++j)
-            if (int(j) != guess && nb[j].locate(q, d)) return int(j);
-        return -1;
-    }
-
-    void gather_points(uint32_t w) {
-        pts.clear(), pfrom.clear();
-        pts.push_back(w), pfrom.push_back(kNil);
-        for (size_t i = 0; i < star_w.size(); ++i)
-            for (uint32_t p = thead[star_w[i]]; p != kNil; p = pnext[p]) pts.push_back(p), pfrom.push_back(uint32_t(i));
-    }
-
-    /// Best target of w by (cost, shape ratio, id); with check_link, the best one that
-    /// also passes the link condition (otherwise the caller checks before committing).
-    /// Fast deviation for ranking candidates (exactness is only tracked at commit).
-    double quick_deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
-                           int64_t det) const {
-        if (small_int) {
-            int64_t num = ival[p] * det;
-            for (int i = 0; i < 4; ++i) num -= ival[t[i]] * d[i];
-            return double(num < 0 ? -num : num) / double(det);
-        }
-        bool exact = true;
-        return deviation(p, t, d, det, exact);
-    }
-
-    /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
-    /// result is `partial` with a lower bound (docs/mt.md §2, "Order").
-    Candidate evaluate(uint32_t w, bool check_link, uint32_t prefer = kNil,
-                       double cutoff = std::numeric_limits<double>::infinity()) {
-        ++n_eval;
-        gather_star(w, star_w);
-        gather_points(w);
-        n_pts += pts.size();
-        double link_max = 0;
-        nbrs.clear();
-        for (uint32_t t : star_w) {
-            const int sw = slot_of(tv[t], w);
-            link_max = std::max(link_max, double(tferr[t][sw]));
-            for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != w) nbrs.push_back(tv[t][i]);
-        }
-        std::sort(nbrs.begin(), nbrs.end());
-        nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
-        // Trying last time's winner first makes the early exits bite sooner; the
-        // result does not depend on the order (strict total order on the key).
-        if (prefer != kNil) {
-            auto it = std::find(nbrs.begin(), nbrs.end(), prefer);
-            if (it != nbrs.end()) std::rotate(nbrs.begin(), it, it + 1);
-        }
-        // Rank the geometrically legal targets by shape first: a later target then
-        // wins only with a strictly smaller error, so ties stop scanning at once.
-        ranked.clear();
-        for (uint32_t s : nbrs) {
-            if ((planes[w] & ~planes[s]) != 0) continue;
-            if (!make_new_tets(w, s, false)) continue;
-            double q = 0;
-            for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
-            if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
-            ranked.push_back({q, s});
-        }
-        std::sort(ranked.begin(), ranked.end());
-        std::vector<uint32_t> excluded;
-        for (;;) {
-            Candidate best;
-            double lower = std::numeric_limits<double>::infinity();
-            bool cut = false;
-            for (const auto& [q, s] : ranked) {
-                if (std::find(excluded.begin(), excluded.end(), s) != excluded.end()) continue;
-                // With a best, this target must be strictly cheaper; else not above the cutoff.
-                auto over_limit = [&](double c) { return best.ok ? c >= best.cost : c > cutoff; };
-                double cost = link_max;
-                if (over_limit(cost)) {
-                    if (!best.ok) cut = true, lower = std::min(lower, cost);
-                    continue;
-                }
-                make_new_tets(w, s);
-                bool ok = true, over = false;
-                std::array<int64_t, 4> d;
-                for (size_t i = 0; i < pts.size(); ++i) {
-                    const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
-                    const int j = locate(pts[i], guess, d);
-                    if (j < 0) {
-                        ok = false;
-                        break;
-                    }
-                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[j].det));
-                    if (over_limit(cost)) {
-                        over = true;
-                        break;
-                    }
-                }
-                if (!ok) continue;
-                if (over) {
-                    if (!best.ok) cut = true, lower = std::min(lower, cost);
-                    continue;
-                }
-                best.ok = true, best.cost = cost, best.quality = q, best.s = s;
-            }
-            if (!best.ok) {
-                if (cut) best.partial = true, best.cost = lower, best.quality = -INFINITY;
-                return best;
-            }
-            if (!check_link || link_ok(w, best.s)) return best;
-            excluded.push_back(best.s);
-        }
-    }
-
-    // ---- commit w -> s --------------------------------------------------------
-    std::vector<uint32_t> star_s_scratch, mask_perm;
-    std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> mask_keys;
-
-    MtHistory::Tet node_tet(const std::array<uint32_t, 4>& t) const {
-        return {cur_node[t[0]], cur_node[t[1]], cur_node[t[2]], cur_node[t[3]]};
-    }
-
-    void commit(uint32_t w, uint32_t s) {
-        gather_star(w, star_w);
-        gather_points(w);
-        MtHistory* hist = opt.record_history ? &model.history_.front() : nullptr;
-        if (hist) {
-            std::vector<MtHistory::Tet> before;
-            for (uint32_t t : star_w) before.push_back(node_tet(tv[t]));
-            for_star(s, [&](uint32_t t, uint32_t) {
-                if (slot_of(tv[t], w) < 0) before.push_back(node_tet(tv[t]));
-            });
-            hist->before.push_back(std::move(before));
-        }
-        if (!make_new_tets(w, s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
-        // Face errors inherited by the new tets (see the file comment).
-        std::vector<std::array<float, 4>> nf(ntv.size(), {0, 0, 0, 0});
-        std::vector<double> ne(ntv.size(), 0.0);
-        std::vector<bool> nexact(ntv.size(), true);
-        for (size_t i = 0; i < star_w.size(); ++i) {
-            const uint32_t t = star_w[i];
-            const int sw = slot_of(tv[t], w);
-            if (old2new[i] >= 0) {
-                nf[old2new[i]][sw] = tferr[t][sw];
-                continue;
-            }
-            // Edge tet (w,s,a,b): its face sab (opposite w) is a face of one new tet.
-            std::array<uint32_t, 2> ab{};
-            int k = 0;
-            for (int j = 0; j < 4; ++j)
-                if (tv[t][j] != w && tv[t][j] != s) ab[k++] = tv[t][j];
-            for (size_t j = 0; j < ntv.size(); ++j) {
-                const int sa = slot_of(ntv[j], ab[0]), sb = slot_of(ntv[j], ab[1]);
-                if (sa < 0 || sb < 0) continue;
-                const int opp = 6 - sa - sb - slot_of(ntv[j], s);
-                nf[j][opp] = std::max(nf[j][opp], tferr[t][sw]);
-            }
-        }
-        // Unlink the old star of w.
-        for (size_t i = 0; i < star_w.size(); ++i) {
-            const uint32_t t = star_w[i];
-            if (old2new[i] >= 0) continue;
-            for (int j = 0; j < 4; ++j)
-                if (tv[t][j] != w) unlink_corner(tv[t][j], 4 * t + j);
-            thead[t] = kNil;
-            free_tets.push_back(t);
-        }
-        std::vector<uint32_t> newid(ntv.size());
-        for (size_t i = 0; i < star_w.size(); ++i) {
-            const uint32_t t = star_w[i];
-            if (old2new[i] < 0) continue;
-            const int sw = slot_of(tv[t], w);
-            tv[t][sw] = s;
-            link_corner(s, 4 * t + sw);
-            thead[t] = kNil;
-            newid[old2new[i]] = t;
-        }
-        vhead[w] = kNil;
-        // Relocate the points.
-        std::array<int64_t, 4> d;
-        for (size_t i = 0; i < pts.size(); ++i) {
-            const uint32_t p = pts[i];
-            const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
-            const int j = locate(p, guess, d);
-            if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
-            pnext[p] = thead[newid[j]];
-            thead[newid[j]] = p;
-            auto account = [&](int jj, const std::array<int64_t, 4>& dd) {
-                bool exact = true;
-                const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
-                if (dev > ne[jj]) ne[jj] = dev;
-                if (!exact) nexact[jj] = false;
-                const float fd = mt::round_up_float(dev, exact);
-                for (int k = 0; k < 4; ++k)
-                    if (dd[k] == 0) nf[jj][k] = std::max(nf[jj][k], fd);
-            };
-            account(j, d);
-            if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
-                std::array<int64_t, 4> d2;
-                for (size_t k = 0; k < ntv.size(); ++k)
-                    if (int(k) != j && nb[k].locate(coord[p], d2)) account(int(k), d2);
-            }
-        }
-        for (size_t j = 0; j < ntv.size(); ++j) {
-            const uint32_t t = newid[j];
-            float e = mt::round_up_float(ne[j], nexact[j]);
-            for (int k = 0; k < 4; ++k) e = std::max(e, nf[j][k]);
-            terr[t] = e;
-            tferr[t] = nf[j];
-        }
-        // The new node at s.
-        const uint32_t k = uint32_t(model.updates_.size());
-        uint32_t label = std::max(cur_label[s], cur_label[w]);
-        float err = std::max(cur_err[s], cur_err[w]);
-        gather_star(s, star_s_scratch);
-        std::vector<uint32_t> link;
-        for (uint32_t t : star_s_scratch) {
-            err = std::max(err, terr[t]);
-            for (int i = 0; i < 4; ++i)
-                if (tv[t][i] != s) link.push_back(tv[t][i]);
-        }
-        std::sort(link.begin(), link.end());
-        link.erase(std::unique(link.begin(), link.end()), link.end());
-        for (uint32_t u : link) label = std::max(label, cur_label[u]);
-        label += 1;
-        // Split mask over the canonically ordered star.
-        mt::star_order(star_s_scratch, s, coord[s], coord[w], grid,
-                       [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; }, mask_perm,
-                       mask_keys);
-        MtUpdate u;
-        u.w = w, u.s = s, u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
-        u.mask_offset = mask_bit_count;
-        for (uint32_t r = 0; r < mask_perm.size(); ++r) {
-            const uint32_t t = star_s_scratch[mask_perm[r]];
-            const bool wside = std::find(newid.begin(), newid.end(), t) != newid.end();
-            const uint64_t b = mask_bit_count++;
-            if ((b >> 6) >= model.mask_bits_.size()) model.mask_bits_.push_back(0);
-            if (wside) model.mask_bits_[b >> 6] |= uint64_t(1) << (b & 63);
-        }
-        model.updates_.push_back(u);
-        cur_node[s] = n + k;
-        cur_label[s] = label;
-        cur_err[s] = err;
-        alive[w] = 0;
-        ++stamp[w];
-        live_seq[w] = 0;
-        if (hist) {
-            std::vector<MtHistory::Tet> after;
-            for (uint32_t t : star_s_scratch) after.push_back(node_tet(tv[t]));
-            hist->after.push_back(std::move(after));
-            hist->update_of_node.push_back(k);
-        }
-        link.push_back(s);
-        for (uint32_t v : link) {
-            ++stamp[v];
-            if (live_seq[v] == 0) push_dirty(v, current_cost);
-        }
-    }
-    uint64_t mask_bit_count = 0;
-    double current_cost = 0;
-
-    void run() {
-        init();
-        if (opt.record_history) model.history_.emplace_back();
-        for (uint32_t v = 0; v < n; ++v) push_dirty(v, 0.0);
-        while (!heap.empty()) {
-            const Entry e = heap.top();
-            heap.pop();
-            if (e.seq != live_seq[e.w] || !alive[e.w]) continue;
-            live_seq[e.w] = 0;
-            current_cost = std::max(current_cost, std::min(e.cost, opt.max_error));
-            const bool fresh = !e.dirty && e.stamp == stamp[e.w];
-            if (fresh && e.cost > opt.max_error) break;  // fresh keys are exact or lower bounds
-            if (!fresh || e.partial || !link_ok(e.w, e.s)) {
-                const double cutoff = heap.empty() ? INFINITY : heap.top().cost;
-                const Candidate c = evaluate(e.w, fresh && !e.partial, e.s, cutoff);
-                if (c.ok || c.partial) {
-                    live_seq[e.w] = ++seq_counter;
-                    heap.push(Entry{c.cost, c.quality, e.w, c.partial ? kNil : c.s, live_seq[e.w], stamp[e.w],
-                                    false, c.partial});
-                }
-                continue;
-            }
-            if (e.cost > opt.max_error) break;
-            commit(e.w, e.s);
-            ++n_commit;
-        }
-        if (std::getenv("TETLOD_MT_STATS"))
-            std::fprintf(stderr, "mt build: %llu commits, %llu evaluations (%llu points), %llu link tests, %llu failed\n",
-                         (unsigned long long)n_commit, (unsigned long long)n_eval, (unsigned long long)n_pts,
-                         (unsigned long long)n_link, (unsigned long long)n_link_fail);
-        // Base mesh.
-        std::vector<uint8_t> dead(tv.size(), 0);
-        for (uint32_t t : free_tets) dead[t] = 1;
-        for (uint32_t t = 0; t < tv.size(); ++t)
-            if (!dead[t]) {
-                model.base_.push_back(tv[t]);
-                if (opt.record_history) model.history_.front().base.push_back(node_tet(tv[t]));
-            }
-        // Monotone errors up the forest (children before parents: creation order).
-        // Already enforced at creation: err >= cur_err of both children.
-    }
-};
 
 MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     validate_dims(volume.dims, "MT volume");
@@ -606,12 +48,107 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     if (volume.dims.x > 4096 || volume.dims.y > 4096 || volume.dims.z > 4096 ||
         volume.count() >= (int64_t(1) << 31))
         throw Error(ErrorCode::TooLarge, "MT: volume too large for the in-core builder");
+    if (options.brick_cells < 0) throw Error(ErrorCode::InvalidArgument, "MT: negative brick size");
     MtModel m;
     m.field_ = std::move(volume);
-    {
-        MtBuilder b(m.field_, options, m);
-        b.run();
+    const Volume& vol = m.field_;
+    const uint32_t n = uint32_t(vol.count());
+    // History node ids are provisional (>= kProvisional) until merged, which needs 2n of room.
+    if (options.record_history && uint64_t(2) * n >= mt::kProvisional)
+        throw Error(ErrorCode::TooLarge, "MT: history recording is for small volumes");
+    if (options.record_history) m.history_.emplace_back();
+
+    mt::NodeState nodes;
+    nodes.node.resize(n);
+    for (uint32_t i = 0; i < n; ++i) nodes.node[i] = i;
+    nodes.label.assign(n, 0);
+    nodes.err.assign(n, 0.0f);
+
+    const std::array<int64_t, 3> cells{vol.dims.x - 1, vol.dims.y - 1, vol.dims.z - 1};
+    const int64_t largest = std::max({cells[0], cells[1], cells[2]});
+    int64_t size = options.brick_cells == 0 ? largest : std::min<int64_t>(options.brick_cells, largest);
+    std::array<int64_t, 3> prev_count{0, 0, 0};
+    std::vector<mt::BrickMesh> prev;
+    uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
+    const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
+    tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+    for (;;) {
+        std::array<int64_t, 3> count;
+        for (int a = 0; a < 3; ++a) count[a] = (cells[a] + size - 1) / size;
+        const size_t bricks = size_t(count[0] * count[1] * count[2]);
+        std::vector<mt::BrickBox> boxes(bricks);
+        std::vector<std::vector<const mt::BrickMesh*>> inputs(bricks);
+        for (size_t b = 0; b < bricks; ++b) {
+            const std::array<int64_t, 3> at{int64_t(b) % count[0], int64_t(b) / count[0] % count[1],
+                                            int64_t(b) / (count[0] * count[1])};
+            for (int a = 0; a < 3; ++a) {
+                boxes[b].lo[a] = at[a] * size;
+                boxes[b].hi[a] = std::min((at[a] + 1) * size, cells[a]);
+            }
+            if (prev.empty()) continue;
+            // The children: bricks of half the size, in raster order.
+            for (int64_t z = 2 * at[2]; z < std::min(2 * at[2] + 2, prev_count[2]); ++z)
+                for (int64_t y = 2 * at[1]; y < std::min(2 * at[1] + 2, prev_count[1]); ++y)
+                    for (int64_t x = 2 * at[0]; x < std::min(2 * at[0] + 2, prev_count[0]); ++x)
+                        inputs[b].push_back(&prev[size_t((z * prev_count[1] + y) * prev_count[0] + x)]);
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        std::atomic<int> in_flight{0}, most_in_flight{0};  // statistics only
+        std::vector<mt::BrickResult> results(bricks);
+        arena.execute([&] {
+            tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
+                const int now = ++in_flight;
+                for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
+                }
+                results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
+                --in_flight;
+            });
+        });
+        prev.clear();
+        // Merge in brick order: updates, masks, node ids.
+        for (size_t b = 0; b < bricks; ++b) {
+            mt::BrickResult& r = results[b];
+            const uint32_t first = uint32_t(m.updates_.size());
+            for (MtUpdate u : r.updates) {
+                u.mask_offset += mask_bits;
+                m.updates_.push_back(u);
+            }
+            append_bits(m.mask_bits_, mask_bits, r.mask_bits, r.mask_bit_count);
+            mask_bits += r.mask_bit_count;
+            evaluations += r.evaluations, relocated += r.relocated_points;
+            if (options.record_history) {
+                auto fix = [&](uint32_t& id) {
+                    if (id >= mt::kProvisional) id = n + first + (id - mt::kProvisional);
+                };
+                for (const MtUpdate& u : r.updates) fix(nodes.node[u.s]);
+                MtHistory& h = m.history_.front();
+                for (auto* lists : {&r.history.before, &r.history.after})
+                    for (auto& tets : *lists)
+                        for (auto& t : tets)
+                            for (uint32_t& id : t) fix(id);
+                for (auto& tets : r.history.before) h.before.push_back(std::move(tets));
+                for (auto& tets : r.history.after) h.after.push_back(std::move(tets));
+                for (uint32_t k : r.history.update_of_node) h.update_of_node.push_back(first + k);
+            }
+            prev.push_back(std::move(r.mesh));
+        }
+        if (stats)
+            std::fprintf(stderr, "mt build: pass of %zu bricks of %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",
+                         bricks, (long long)size, most_in_flight.load(),
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                         m.updates_.size());
+        prev_count = count;
+        if (bricks == 1) break;
+        size *= 2;
     }
+    m.base_ = std::move(prev.front().tets);
+    if (options.record_history)
+        for (const auto& t : m.base_)
+            m.history_.front().base.push_back(
+                {nodes.node[t[0]], nodes.node[t[1]], nodes.node[t[2]], nodes.node[t[3]]});
+    if (stats)
+        std::fprintf(stderr, "mt build: %zu collapses, %llu evaluations (%llu points)\n", m.updates_.size(),
+                     (unsigned long long)evaluations, (unsigned long long)relocated);
     m.finalize();
     return m;
 }

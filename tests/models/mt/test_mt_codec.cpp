@@ -66,6 +66,26 @@ TEST(MtCodec, DeterministicBytes) {
     EXPECT_TRUE(encode_mt(a.model) == encode_mt(b.model));
 }
 
+// The bricked build merges bricks in a fixed order, so the container does not depend
+// on how many threads decimated them.
+TEST(MtCodec, SameBytesForAnyThreadCount) {
+    for (auto [d, t, f, bricks] : {std::tuple{Dims{13, 11, 9}, ValueType::U8, Field::Noisy, 3},
+                                   std::tuple{Dims{10, 12, 17}, ValueType::F32, Field::Smooth, 2},
+                                   std::tuple{Dims{19, 18, 17}, ValueType::I16, Field::Plateau, 4}}) {
+        SCOPED_TRACE(dims_str(d) + " bricks " + std::to_string(bricks));
+        const Volume v = make_volume(d, t, f, 5);
+        std::vector<uint8_t> first;
+        for (int threads : {1, 2, 0}) {  // 0: the TBB default
+            MtBuildOptions o;
+            o.brick_cells = bricks;
+            o.threads = threads;
+            const auto bytes = encode_mt(MtModel::build(v, o));
+            if (first.empty()) first = bytes;
+            EXPECT_TRUE(bytes == first) << threads << " threads";
+        }
+    }
+}
+
 TEST(MtCodec, EveryPrefixFailsCleanly) {
     const Built b = build({5, 4, 6}, ValueType::U8, Field::Smooth);
     const auto bytes = encode_mt(b.model);

@@ -25,10 +25,12 @@ struct Case {
     Dims dims;
     ValueType type;
     Field field;
+    int brick_cells = MtBuildOptions{}.brick_cells;  // bricked build (docs/mt.md §2)
 };
 
 std::string case_str(const Case& c) {
-    return dims_str(c.dims) + " " + value_type_name(c.type) + " " + field_name(c.field);
+    return dims_str(c.dims) + " " + value_type_name(c.type) + " " + field_name(c.field) + " bricks " +
+           std::to_string(c.brick_cells);
 }
 
 const std::vector<Case>& small_cases() {
@@ -39,6 +41,11 @@ const std::vector<Case>& small_cases() {
         {{12, 9, 7}, ValueType::I16, Field::Noisy},   {{12, 9, 7}, ValueType::U8, Field::Smooth},
         {{3, 11, 4}, ValueType::U8, Field::Constant}, {{17, 17, 17}, ValueType::U8, Field::Smooth},
         {{17, 17, 17}, ValueType::I16, Field::Plateau},
+        // Bricked builds: bricks smaller than the volume along every axis, sizes that do
+        // not divide the cells (partial bricks at the far faces), several merge passes.
+        {{7, 6, 5}, ValueType::U8, Field::Noisy, 2},       {{12, 9, 7}, ValueType::I16, Field::Smooth, 3},
+        {{11, 10, 9}, ValueType::F32, Field::Noisy, 4},    {{9, 9, 9}, ValueType::U8, Field::Constant, 1},
+        {{17, 13, 15}, ValueType::U8, Field::Plateau, 5},  {{6, 14, 5}, ValueType::I16, Field::Noisy, 3},
     };
     return cases;
 }
@@ -57,6 +64,7 @@ const MtModel& model_of(const Case& c, const Volume** vol_out = nullptr) {
         e.vol = make_volume(c.dims, c.type, c.field, 7);
         MtBuildOptions opt;
         opt.record_history = c.dims.count() <= 17 * 17 * 17;
+        opt.brick_cells = c.brick_cells;
         e.model = std::make_unique<MtModel>(MtModel::build(e.vol, opt));
         it = cache.emplace(key, std::move(e)).first;
     }

@@ -76,8 +76,10 @@ struct Bary {
 
 /// The 5 tets of every grid cell (spec/mt-model.md §M2): the 4 corners of even x+y+z form the
 /// central tet, each odd corner a tet with its 3 neighbours. Face diagonals match
-/// across cells. Positively oriented.
-inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
+/// across cells. Positively oriented. `origin`: where g's point 0 sits in the whole
+/// grid (a brick), so that the parity, hence the tets, are those of the whole grid.
+inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const Pt& origin = {0, 0, 0}) {
+    const int64_t po = int64_t(origin[0]) + origin[1] + origin[2];
     std::vector<std::array<uint32_t, 4>> out;
     out.reserve(size_t(5 * (g.X - 1) * (g.Y - 1) * (g.Z - 1)));
     for (int64_t k = 0; k + 1 < g.Z; ++k)
@@ -87,7 +89,7 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
                 int ne = 0;
                 auto corner = [&](int c) { return g.index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2)); };
                 for (int c = 0; c < 8; ++c)
-                    if (((i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) even[ne++] = corner(c);
+                    if (((po + i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) even[ne++] = corner(c);
                 auto emit = [&](std::array<uint32_t, 4> t) {
                     if (orient(g.coord(t[0]), g.coord(t[1]), g.coord(t[2]), g.coord(t[3])) < 0)
                         std::swap(t[2], t[3]);
@@ -95,7 +97,7 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g) {
                 };
                 emit(even);
                 for (int c = 0; c < 8; ++c) {
-                    if (((i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) continue;
+                    if (((po + i + (c & 1) + j + (c >> 1 & 1) + k + (c >> 2)) & 1) == 0) continue;
                     emit({corner(c), corner(c ^ 1), corner(c ^ 2), corner(c ^ 4)});
                 }
             }

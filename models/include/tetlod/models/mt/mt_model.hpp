@@ -40,8 +40,12 @@ struct MtBuildOptions {
     /// Keep the explicit tet history (node-space tets removed/created per update),
     /// for the test oracle only: ~400 bytes per grid point.
     bool record_history = false;
-    /// Worker threads (0 = TBB default). The build is deterministic for any value.
+    /// Worker threads (0 = TBB default). The model is the same for any value.
     int threads = 0;
+    /// Cells per brick edge in the first pass of the bricked build (docs/mt.md §2,
+    /// "Bricks"); each further pass doubles it. 0: one brick, the whole volume. The
+    /// model depends on it (not on `threads`).
+    int brick_cells = 32;
 };
 
 /// One vertex split (the inverse of collapse w -> s), in node space.
@@ -130,7 +134,6 @@ private:
     std::vector<MtHistory> history_;  // 0 or 1 element
 
     friend struct MtRefiner;
-    friend struct MtBuilder;
 };
 
 }  // namespace tetlod

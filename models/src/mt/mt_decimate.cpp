@@ -1,0 +1,689 @@
+// MT brick decimator: bottom-up decimation of the 5-tets-per-cell reference mesh
+// (or of the child bricks' meshes) inside one brick by half-edge collapses
+// (docs/mt.md §2; bricks: mt_decimate.hpp). Legality: box-feature rule,
+// strictly positive orientation of every new tet (exact int64), link condition
+// with a ghost vertex for the boundary (Dey, Edelsbrunner, Guha, Nekhayev,
+// "Topology preserving edge contraction", 1999). Error: every removed grid point is
+// kept in the list of one tet containing it; the closed error of each tet and of
+// each of its faces is maintained exactly, so an update's error bounds |f - L|
+// at every grid point of every tet of its star (docs/mt.md §2).
+//
+// Order: a heap of one live entry per vertex keyed by (cost, shape ratio, id),
+// re-evaluated lazily when its star changed (docs/mt.md §2, "Order"): deterministic.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <queue>
+
+#include "mt_decimate.hpp"
+#include "tetlod/models/detail/mt_geometry.hpp"
+#include "tetlod/core/error.hpp"
+
+namespace tetlod::mt {
+
+namespace {
+constexpr uint32_t kOmega = 0xFFFFFFFEu;  // ghost vertex (sorts after every grid index)
+
+struct Entry {
+    double cost;
+    double quality;
+    uint32_t w, s, seq, stamp;
+    bool dirty;
+    bool partial;  // cost is a lower bound: re-evaluate when popped
+    // std::priority_queue pops the largest: invert for a min-heap on (cost, quality, w, seq).
+    bool operator<(const Entry& o) const {
+        if (cost != o.cost) return cost > o.cost;
+        if (quality != o.quality) return quality > o.quality;
+        if (w != o.w) return w > o.w;
+        return seq > o.seq;
+    }
+};
+
+struct Candidate {
+    bool ok = false;
+    bool partial = false;  // every target costs more than the cutoff; cost is a lower bound
+    double cost = 0, quality = 0;
+    uint32_t s = kNil;
+};
+}  // namespace
+
+namespace {
+
+// Works in brick-local point indices (raster order of the box). The map to
+// whole-grid indices is increasing, so every order on indices (heap ties, the
+// canonical star order) is the same as the whole grid's.
+struct BrickDecimator {
+    const Volume& vol;
+    const MtBuildOptions& opt;
+    const BrickBox& box;
+    mt::Grid grid;   // the box
+    mt::Grid whole;  // the volume
+    uint32_t n;      // points in the box
+    bool int_data;
+    bool small_int;  // |values| < 2^20: numerators fit in int64
+    std::vector<Pt> coord;
+    std::vector<double> val;
+    std::vector<int64_t> ival;
+    std::vector<uint8_t> planes;  // planes of the volume's box
+    std::vector<uint8_t> frozen;  // on a face of the brick inside the volume
+
+    // Tets.
+    // Tets: one cache line each, so that walking a star costs one miss per tet.
+    struct alignas(64) TetRec {
+        std::array<uint32_t, 4> v{};                         // vertices, positively oriented
+        std::array<uint32_t, 4> next{kNil, kNil, kNil, kNil};  // corner chains
+        std::array<float, 4> ferr{0, 0, 0, 0};               // closed error of the face opposite each corner
+        float err = 0;                                       // closed error
+        uint32_t head = kNil;                                // owned point list
+    };
+    std::vector<TetRec> tets;
+    std::vector<uint32_t> free_tets;
+
+    // Vertices / grid points.
+    std::vector<uint32_t> vhead;  // first corner
+    std::vector<uint32_t> pnext;  // owned point list link
+    std::vector<uint32_t> stamp, live_seq;
+    std::vector<uint8_t> alive;
+    std::vector<uint32_t> cur_node, cur_label;
+    std::vector<float> cur_err;
+
+    const std::vector<const BrickMesh*>& input;
+    NodeState& nodes;
+    BrickResult& out;
+    uint32_t seq_counter = 0;
+    std::priority_queue<Entry> heap;
+
+    // Scratch.
+    std::vector<uint32_t> star_w, pts, pfrom, nbrs;
+    std::vector<std::array<uint32_t, 4>> ntv;
+    std::vector<Bary> nb;
+    std::vector<int> old2new;
+    std::vector<std::pair<double, uint32_t>> ranked;
+
+    static Dims box_dims(const BrickBox& b) {
+        return {b.hi[0] - b.lo[0] + 1, b.hi[1] - b.lo[1] + 1, b.hi[2] - b.lo[2] + 1};
+    }
+    BrickDecimator(const Volume& v, const MtBuildOptions& o, const BrickBox& b,
+                   const std::vector<const BrickMesh*>& in, NodeState& nd, BrickResult& r)
+        : vol(v), opt(o), box(b), grid(box_dims(b)), whole(v.dims),
+          n(uint32_t(grid.X * grid.Y * grid.Z)), input(in), nodes(nd), out(r) {}
+    uint32_t global(uint32_t i) const { return whole.index(coord[i][0], coord[i][1], coord[i][2]); }
+    uint32_t local(uint32_t g) const {
+        const Pt p = whole.coord(g);
+        return grid.index(p[0] - box.lo[0], p[1] - box.lo[1], p[2] - box.lo[2]);
+    }
+
+    // ---- corner chains -------------------------------------------------------
+    template <class F>
+    void for_star(uint32_t v, F f) const {
+        for (uint32_t c = vhead[v]; c != kNil; c = tets[(c) >> 2].next[(c) & 3]) f(c >> 2, c & 3);
+    }
+    void gather_star(uint32_t v, std::vector<uint32_t>& out) const {
+        out.clear();
+        for_star(v, [&](uint32_t t, uint32_t) { out.push_back(t); });
+    }
+    void unlink_corner(uint32_t v, uint32_t corner) {
+        uint32_t* link = &vhead[v];
+        while (*link != corner) link = &tets[(*link) >> 2].next[(*link) & 3];
+        *link = tets[(corner) >> 2].next[(corner) & 3];
+    }
+    void link_corner(uint32_t v, uint32_t corner) {
+        tets[(corner) >> 2].next[(corner) & 3] = vhead[v];
+        vhead[v] = corner;
+    }
+    static int slot_of(const std::array<uint32_t, 4>& t, uint32_t v) {
+        for (int i = 0; i < 4; ++i)
+            if (t[i] == v) return i;
+        return -1;
+    }
+    std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
+        return {coord[t[0]], coord[t[1]], coord[t[2]], coord[t[3]]};
+    }
+
+    // ---- exact deviation of point p from the interpolant of a tet -----------
+    // d: barycentric numerators of p (sum = det > 0). Returns the error as a double
+    // and whether it is exact.
+    double deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
+                     int64_t det, bool& exact) const {
+        if (int_data) {
+            __int128 num = __int128(ival[p]) * det;
+            for (int i = 0; i < 4; ++i) num -= __int128(ival[t[i]]) * d[i];
+            if (num < 0) num = -num;
+            if (num == 0) return 0.0;
+            exact = exact && (num % det == 0) && num / det < (__int128(1) << 53);
+            return double(num) / double(det);
+        }
+        double l = 0;
+        for (int i = 0; i < 4; ++i) l += val[t[i]] * double(d[i]);
+        exact = false;
+        return std::fabs(val[p] - l / double(det));
+    }
+
+    // ---- setup ---------------------------------------------------------------
+    void init() {
+        int_data = !is_float(vol.type);
+        small_int = vol.type == ValueType::U8 || vol.type == ValueType::I8 || vol.type == ValueType::U16 ||
+                    vol.type == ValueType::I16;
+        coord.resize(n);
+        planes.resize(n);
+        val.resize(n);
+        if (int_data) ival.resize(n);
+        frozen.resize(n);
+        cur_node.resize(n);
+        cur_label.resize(n);
+        cur_err.resize(n);
+        const Pt lo{int32_t(box.lo[0]), int32_t(box.lo[1]), int32_t(box.lo[2])};
+        for (uint32_t i = 0; i < n; ++i) {
+            const Pt c = grid.coord(i);
+            coord[i] = {c[0] + lo[0], c[1] + lo[1], c[2] + lo[2]};
+            planes[i] = whole.planes(coord[i]);
+            uint8_t f = 0;
+            for (int a = 0; a < 3; ++a) {
+                const int64_t last = (a == 0 ? whole.X : a == 1 ? whole.Y : whole.Z) - 1;
+                f |= (coord[i][a] == box.lo[a] && box.lo[a] != 0) || (coord[i][a] == box.hi[a] && box.hi[a] != last);
+            }
+            frozen[i] = f;
+            const uint32_t g = global(i);
+            val[i] = vol.value(g);
+            if (int_data) ival[i] = int64_t(val[i]);
+            cur_node[i] = nodes.node[g];
+            cur_label[i] = nodes.label[g];
+            cur_err[i] = nodes.err[g];
+        }
+        pnext.assign(n, kNil);
+        if (input.empty()) {
+            for (const auto& t : mt::reference_tets(grid, lo)) tets.push_back(TetRec{t});
+            alive.assign(n, 1);
+        } else {
+            alive.assign(n, 0);
+            for (const BrickMesh* b : input)
+                for (size_t t = 0; t < b->tets.size(); ++t) {
+                    std::array<uint32_t, 4> lt;
+                    for (int i = 0; i < 4; ++i) alive[lt[i] = local(b->tets[t][i])] = 1;
+                    TetRec rec{lt};
+                    rec.err = b->err[t];
+                    rec.ferr = b->face_err[t];
+                    // Keep each point list in its order (the evaluation's early exits see it).
+                    uint32_t head = kNil, *tail = &head;
+                    for (uint32_t k = b->point_start[t]; k < b->point_start[t + 1]; ++k) {
+                        const uint32_t p = local(b->points[k]);
+                        *tail = p;
+                        tail = &pnext[p];
+                    }
+                    *tail = kNil;
+                    rec.head = head;
+                    tets.push_back(rec);
+                }
+        }
+        const size_t m = tets.size();
+        vhead.assign(n, kNil);
+        for (size_t t = m; t-- > 0;)
+            for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
+        stamp.assign(n, 0);
+        live_seq.assign(n, 0);
+    }
+
+    void push_dirty(uint32_t w, double cost) {
+        live_seq[w] = ++seq_counter;
+        heap.push(Entry{cost, -INFINITY, w, kNil, live_seq[w], stamp[w], true, false});
+    }
+
+    // ---- link condition (docs/mt.md §2, "Legality") -------------------------
+    struct Link {
+        std::vector<uint32_t> v0;
+        std::vector<std::array<uint32_t, 2>> v1;
+        std::vector<std::array<uint32_t, 3>> v2;
+        std::vector<std::array<uint32_t, 2>> bfaces;  // boundary faces (v,a,b), a<b
+        std::vector<std::array<uint32_t, 2>> faces;   // scratch
+    };
+    std::vector<uint32_t> e0_, i0_;
+    std::vector<std::array<uint32_t, 2>> e1_, i1_;
+    std::vector<std::array<uint32_t, 3>> i2_;
+    void build_link(uint32_t v, Link& L) const {
+        L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
+        auto& faces = L.faces;
+        faces.clear();
+        for_star(v, [&](uint32_t t, uint32_t slot) {
+            std::array<uint32_t, 3> o{};
+            int k = 0;
+            for (int i = 0; i < 4; ++i)
+                if (i != int(slot)) o[k++] = tets[t].v[i];
+            std::sort(o.begin(), o.end());
+            L.v2.push_back(o);
+            L.v1.push_back({o[0], o[1]}), L.v1.push_back({o[0], o[2]}), L.v1.push_back({o[1], o[2]});
+            L.v0.push_back(o[0]), L.v0.push_back(o[1]), L.v0.push_back(o[2]);
+            faces.push_back({o[0], o[1]}), faces.push_back({o[0], o[2]}), faces.push_back({o[1], o[2]});
+        });
+        std::sort(faces.begin(), faces.end());
+        for (size_t i = 0; i < faces.size();) {
+            size_t j = i;
+            while (j < faces.size() && faces[j] == faces[i]) ++j;
+            if (j - i == 1) L.bfaces.push_back(faces[i]);
+            i = j;
+        }
+        if (!L.bfaces.empty()) L.v0.push_back(kOmega);
+        for (const auto& f : L.bfaces) {
+            L.v1.push_back({f[0], kOmega}), L.v1.push_back({f[1], kOmega});
+            L.v2.push_back({f[0], f[1], kOmega});
+        }
+        auto uniq = [](auto& x) {
+            std::sort(x.begin(), x.end());
+            x.erase(std::unique(x.begin(), x.end()), x.end());
+        };
+        uniq(L.v0), uniq(L.v1), uniq(L.v2);
+    }
+    Link lw_, ls_;
+    uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
+    bool link_ok(uint32_t w, uint32_t s) {
+        ++n_link;
+        build_link(w, lw_);
+        build_link(s, ls_);
+        // Link of edge ws.
+        auto& e0 = e0_;
+        auto& e1 = e1_;
+        e0.clear(), e1.clear();
+        for_star(w, [&](uint32_t t, uint32_t) {
+            if (slot_of(tets[t].v, s) < 0) return;
+            std::array<uint32_t, 2> ab{};
+            int k = 0;
+            for (int i = 0; i < 4; ++i)
+                if (tets[t].v[i] != w && tets[t].v[i] != s) ab[k++] = tets[t].v[i];
+            if (ab[0] > ab[1]) std::swap(ab[0], ab[1]);
+            e1.push_back(ab);
+            e0.push_back(ab[0]), e0.push_back(ab[1]);
+        });
+        bool boundary_edge = false;
+        for (const auto& f : lw_.bfaces)
+            if (f[0] == s || f[1] == s) {
+                const uint32_t a = f[0] == s ? f[1] : f[0];
+                e1.push_back({a, kOmega});
+                e0.push_back(a);
+                boundary_edge = true;
+            }
+        if (boundary_edge) e0.push_back(kOmega);
+        std::sort(e0.begin(), e0.end());
+        e0.erase(std::unique(e0.begin(), e0.end()), e0.end());
+        std::sort(e1.begin(), e1.end());
+        e1.erase(std::unique(e1.begin(), e1.end()), e1.end());
+        auto& i0 = i0_;
+        i0.clear();
+        std::set_intersection(lw_.v0.begin(), lw_.v0.end(), ls_.v0.begin(), ls_.v0.end(),
+                              std::back_inserter(i0));
+        if (i0 != e0) return ++n_link_fail, false;
+        auto& i1 = i1_;
+        i1.clear();
+        std::set_intersection(lw_.v1.begin(), lw_.v1.end(), ls_.v1.begin(), ls_.v1.end(),
+                              std::back_inserter(i1));
+        if (i1 != e1) return ++n_link_fail, false;
+        auto& i2 = i2_;
+        i2.clear();
+        std::set_intersection(lw_.v2.begin(), lw_.v2.end(), ls_.v2.begin(), ls_.v2.end(),
+                              std::back_inserter(i2));
+        if (!i2.empty()) ++n_link_fail;
+        return i2.empty();
+    }
+
+    // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
+    // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
+    bool make_new_tets(uint32_t w, uint32_t s, bool bary = true) {
+        ntv.clear(), nb.clear();
+        old2new.assign(star_w.size(), -1);
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            auto t = tets[star_w[i]].v;
+            if (slot_of(t, s) >= 0) continue;
+            t[slot_of(t, w)] = s;
+            const auto p = pts_of(t);
+            if (!bary) {
+                if (mt::orient(p[0], p[1], p[2], p[3]) <= 0) return false;
+            } else {
+                Bary b;
+                b.set(p);
+                if (b.det <= 0) return false;
+                nb.push_back(b);
+            }
+            old2new[i] = int(ntv.size());
+            ntv.push_back(t);
+        }
+        return true;
+    }
+    // Index of the first new tet containing p (guess first), -1 if none.
+    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) const {
+        const Pt& q = coord[p];
+        if (guess >= 0 && nb[guess].locate(q, d)) return guess;
+        for (size_t j = 0; j < nb.size(); ++j)
+            if (int(j) != guess && nb[j].locate(q, d)) return int(j);
+        return -1;
+    }
+
+    void gather_points(uint32_t w) {
+        pts.clear(), pfrom.clear();
+        pts.push_back(w), pfrom.push_back(kNil);
+        for (size_t i = 0; i < star_w.size(); ++i)
+            for (uint32_t p = tets[star_w[i]].head; p != kNil; p = pnext[p]) pts.push_back(p), pfrom.push_back(uint32_t(i));
+    }
+
+    /// Best target of w by (cost, shape ratio, id); with check_link, the best one that
+    /// also passes the link condition (otherwise the caller checks before committing).
+    /// Fast deviation for ranking candidates (exactness is only tracked at commit).
+    double quick_deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
+                           int64_t det) const {
+        if (small_int) {
+            int64_t num = ival[p] * det;
+            for (int i = 0; i < 4; ++i) num -= ival[t[i]] * d[i];
+            return double(num < 0 ? -num : num) / double(det);
+        }
+        bool exact = true;
+        return deviation(p, t, d, det, exact);
+    }
+
+    /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
+    /// result is `partial` with a lower bound (docs/mt.md §2, "Order").
+    Candidate evaluate(uint32_t w, bool check_link, uint32_t prefer = kNil,
+                       double cutoff = std::numeric_limits<double>::infinity()) {
+        ++n_eval;
+        gather_star(w, star_w);
+        // The points are gathered only when a target gets past the face errors of the
+        // link: when those alone exceed the cutoff, no point is needed (a lower bound).
+        bool gathered = false;
+        double link_max = 0;
+        nbrs.clear();
+        for (uint32_t t : star_w) {
+            const int sw = slot_of(tets[t].v, w);
+            link_max = std::max(link_max, double(tets[t].ferr[sw]));
+            for (int i = 0; i < 4; ++i)
+                if (tets[t].v[i] != w) nbrs.push_back(tets[t].v[i]);
+        }
+        std::sort(nbrs.begin(), nbrs.end());
+        nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
+        // Trying last time's winner first makes the early exits bite sooner; the
+        // result does not depend on the order (strict total order on the key).
+        if (prefer != kNil) {
+            auto it = std::find(nbrs.begin(), nbrs.end(), prefer);
+            if (it != nbrs.end()) std::rotate(nbrs.begin(), it, it + 1);
+        }
+        // Rank the geometrically legal targets by shape first: a later target then
+        // wins only with a strictly smaller error, so ties stop scanning at once.
+        // When the link's face errors alone exceed the cutoff, every target is cut there:
+        // the answer is that lower bound if some target is legal, so the first legal one
+        // settles it and no shape is ranked (most evaluations end here).
+        const bool all_cut = link_max > cutoff;
+        ranked.clear();
+        for (uint32_t s : nbrs) {
+            if ((planes[w] & ~planes[s]) != 0 || frozen[s]) continue;
+            if (!make_new_tets(w, s, false)) continue;
+            double q = 0;
+            if (!all_cut || opt.max_shape_ratio > 0)
+                for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
+            if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
+            ranked.push_back({q, s});
+            if (all_cut) break;
+        }
+        if (all_cut) {
+            Candidate c;
+            if (!ranked.empty()) c.partial = true, c.cost = link_max, c.quality = -INFINITY;
+            return c;
+        }
+        std::sort(ranked.begin(), ranked.end());
+        std::vector<uint32_t> excluded;
+        for (;;) {
+            Candidate best;
+            double lower = std::numeric_limits<double>::infinity();
+            bool cut = false;
+            for (const auto& [q, s] : ranked) {
+                if (std::find(excluded.begin(), excluded.end(), s) != excluded.end()) continue;
+                // With a best, this target must be strictly cheaper; else not above the cutoff.
+                auto over_limit = [&](double c) { return best.ok ? c >= best.cost : c > cutoff; };
+                double cost = link_max;
+                if (over_limit(cost)) {
+                    if (!best.ok) cut = true, lower = std::min(lower, cost);
+                    continue;
+                }
+                if (!gathered) {
+                    gather_points(w);
+                    n_pts += pts.size();
+                    gathered = true;
+                }
+                make_new_tets(w, s);
+                bool ok = true, over = false;
+                std::array<int64_t, 4> d;
+                for (size_t i = 0; i < pts.size(); ++i) {
+                    const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
+                    const int j = locate(pts[i], guess, d);
+                    if (j < 0) {
+                        ok = false;
+                        break;
+                    }
+                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[j].det));
+                    if (over_limit(cost)) {
+                        over = true;
+                        break;
+                    }
+                }
+                if (!ok) continue;
+                if (over) {
+                    if (!best.ok) cut = true, lower = std::min(lower, cost);
+                    continue;
+                }
+                best.ok = true, best.cost = cost, best.quality = q, best.s = s;
+            }
+            if (!best.ok) {
+                if (cut) best.partial = true, best.cost = lower, best.quality = -INFINITY;
+                return best;
+            }
+            if (!check_link || link_ok(w, best.s)) return best;
+            excluded.push_back(best.s);
+        }
+    }
+
+    // ---- commit w -> s --------------------------------------------------------
+    std::vector<uint32_t> star_s_scratch, mask_perm;
+    std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> mask_keys;
+
+    MtHistory::Tet node_tet(const std::array<uint32_t, 4>& t) const {
+        return {cur_node[t[0]], cur_node[t[1]], cur_node[t[2]], cur_node[t[3]]};
+    }
+
+    void commit(uint32_t w, uint32_t s) {
+        gather_star(w, star_w);
+        gather_points(w);
+        MtHistory* hist = opt.record_history ? &out.history : nullptr;
+        if (hist) {
+            std::vector<MtHistory::Tet> before;
+            for (uint32_t t : star_w) before.push_back(node_tet(tets[t].v));
+            for_star(s, [&](uint32_t t, uint32_t) {
+                if (slot_of(tets[t].v, w) < 0) before.push_back(node_tet(tets[t].v));
+            });
+            hist->before.push_back(std::move(before));
+        }
+        if (!make_new_tets(w, s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
+        // Face errors inherited by the new tets (see the file comment).
+        std::vector<std::array<float, 4>> nf(ntv.size(), {0, 0, 0, 0});
+        std::vector<double> ne(ntv.size(), 0.0);
+        std::vector<bool> nexact(ntv.size(), true);
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const uint32_t t = star_w[i];
+            const int sw = slot_of(tets[t].v, w);
+            if (old2new[i] >= 0) {
+                nf[old2new[i]][sw] = tets[t].ferr[sw];
+                continue;
+            }
+            // Edge tet (w,s,a,b): its face sab (opposite w) is a face of one new tet.
+            std::array<uint32_t, 2> ab{};
+            int k = 0;
+            for (int j = 0; j < 4; ++j)
+                if (tets[t].v[j] != w && tets[t].v[j] != s) ab[k++] = tets[t].v[j];
+            for (size_t j = 0; j < ntv.size(); ++j) {
+                const int sa = slot_of(ntv[j], ab[0]), sb = slot_of(ntv[j], ab[1]);
+                if (sa < 0 || sb < 0) continue;
+                const int opp = 6 - sa - sb - slot_of(ntv[j], s);
+                nf[j][opp] = std::max(nf[j][opp], tets[t].ferr[sw]);
+            }
+        }
+        // Unlink the old star of w.
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const uint32_t t = star_w[i];
+            if (old2new[i] >= 0) continue;
+            for (int j = 0; j < 4; ++j)
+                if (tets[t].v[j] != w) unlink_corner(tets[t].v[j], 4 * t + j);
+            tets[t].head = kNil;
+            free_tets.push_back(t);
+        }
+        std::vector<uint32_t> newid(ntv.size());
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const uint32_t t = star_w[i];
+            if (old2new[i] < 0) continue;
+            const int sw = slot_of(tets[t].v, w);
+            tets[t].v[sw] = s;
+            link_corner(s, 4 * t + sw);
+            tets[t].head = kNil;
+            newid[old2new[i]] = t;
+        }
+        vhead[w] = kNil;
+        // Relocate the points.
+        std::array<int64_t, 4> d;
+        for (size_t i = 0; i < pts.size(); ++i) {
+            const uint32_t p = pts[i];
+            const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
+            const int j = locate(p, guess, d);
+            if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
+            pnext[p] = tets[newid[j]].head;
+            tets[newid[j]].head = p;
+            auto account = [&](int jj, const std::array<int64_t, 4>& dd) {
+                bool exact = true;
+                const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
+                if (dev > ne[jj]) ne[jj] = dev;
+                if (!exact) nexact[jj] = false;
+                const float fd = mt::round_up_float(dev, exact);
+                for (int k = 0; k < 4; ++k)
+                    if (dd[k] == 0) nf[jj][k] = std::max(nf[jj][k], fd);
+            };
+            account(j, d);
+            if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
+                std::array<int64_t, 4> d2;
+                for (size_t k = 0; k < ntv.size(); ++k)
+                    if (int(k) != j && nb[k].locate(coord[p], d2)) account(int(k), d2);
+            }
+        }
+        for (size_t j = 0; j < ntv.size(); ++j) {
+            const uint32_t t = newid[j];
+            float e = mt::round_up_float(ne[j], nexact[j]);
+            for (int k = 0; k < 4; ++k) e = std::max(e, nf[j][k]);
+            tets[t].err = e;
+            tets[t].ferr = nf[j];
+        }
+        // The new node at s.
+        const uint32_t k = uint32_t(out.updates.size());
+        uint32_t label = std::max(cur_label[s], cur_label[w]);
+        float err = std::max(cur_err[s], cur_err[w]);
+        gather_star(s, star_s_scratch);
+        std::vector<uint32_t> link;
+        for (uint32_t t : star_s_scratch) {
+            err = std::max(err, tets[t].err);
+            for (int i = 0; i < 4; ++i)
+                if (tets[t].v[i] != s) link.push_back(tets[t].v[i]);
+        }
+        std::sort(link.begin(), link.end());
+        link.erase(std::unique(link.begin(), link.end()), link.end());
+        for (uint32_t u : link) label = std::max(label, cur_label[u]);
+        label += 1;
+        // Split mask over the canonically ordered star.
+        mt::star_order(star_s_scratch, s, coord[s], coord[w], grid,
+                       [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tets[t].v; }, mask_perm,
+                       mask_keys);
+        MtUpdate u;
+        u.w = global(w), u.s = global(s), u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
+        u.mask_offset = mask_bit_count;
+        for (uint32_t r = 0; r < mask_perm.size(); ++r) {
+            const uint32_t t = star_s_scratch[mask_perm[r]];
+            const bool wside = std::find(newid.begin(), newid.end(), t) != newid.end();
+            const uint64_t b = mask_bit_count++;
+            if ((b >> 6) >= out.mask_bits.size()) out.mask_bits.push_back(0);
+            if (wside) out.mask_bits[b >> 6] |= uint64_t(1) << (b & 63);
+        }
+        out.updates.push_back(u);
+        cur_node[s] = kProvisional + k;
+        cur_label[s] = label;
+        cur_err[s] = err;
+        alive[w] = 0;
+        ++stamp[w];
+        live_seq[w] = 0;
+        if (hist) {
+            std::vector<MtHistory::Tet> after;
+            for (uint32_t t : star_s_scratch) after.push_back(node_tet(tets[t].v));
+            hist->after.push_back(std::move(after));
+            hist->update_of_node.push_back(k);
+        }
+        link.push_back(s);
+        for (uint32_t v : link) {
+            ++stamp[v];
+            if (live_seq[v] == 0 && !frozen[v]) push_dirty(v, current_cost);
+        }
+    }
+    uint64_t mask_bit_count = 0;
+    double current_cost = 0;
+
+    void run() {
+        init();
+        for (uint32_t v = 0; v < n; ++v)
+            if (alive[v] && !frozen[v]) push_dirty(v, 0.0);
+        while (!heap.empty()) {
+            const Entry e = heap.top();
+            heap.pop();
+            if (e.seq != live_seq[e.w] || !alive[e.w]) continue;
+            live_seq[e.w] = 0;
+            current_cost = std::max(current_cost, std::min(e.cost, opt.max_error));
+            const bool fresh = !e.dirty && e.stamp == stamp[e.w];
+            if (fresh && e.cost > opt.max_error) break;  // fresh keys are exact or lower bounds
+            if (!fresh || e.partial || !link_ok(e.w, e.s)) {
+                const double cutoff = heap.empty() ? INFINITY : heap.top().cost;
+                const Candidate c = evaluate(e.w, fresh && !e.partial, e.s, cutoff);
+                if (c.ok || c.partial) {
+                    live_seq[e.w] = ++seq_counter;
+                    heap.push(Entry{c.cost, c.quality, e.w, c.partial ? kNil : c.s, live_seq[e.w], stamp[e.w],
+                                    false, c.partial});
+                }
+                continue;
+            }
+            if (e.cost > opt.max_error) break;
+            commit(e.w, e.s);
+            ++n_commit;
+        }
+        out.evaluations = n_eval;
+        out.relocated_points = n_pts;
+        // The decimated mesh, in slot order, and the node state of the free points.
+        std::vector<uint8_t> dead(tets.size(), 0);
+        for (uint32_t t : free_tets) dead[t] = 1;
+        BrickMesh& mesh = out.mesh;
+        mesh.point_start.push_back(0);
+        for (uint32_t t = 0; t < tets.size(); ++t) {
+            if (dead[t]) continue;
+            mesh.tets.push_back({global(tets[t].v[0]), global(tets[t].v[1]), global(tets[t].v[2]), global(tets[t].v[3])});
+            mesh.err.push_back(tets[t].err);
+            mesh.face_err.push_back(tets[t].ferr);
+            for (uint32_t p = tets[t].head; p != kNil; p = pnext[p]) mesh.points.push_back(global(p));
+            mesh.point_start.push_back(uint32_t(mesh.points.size()));
+        }
+        for (uint32_t i = 0; i < n; ++i) {
+            if (frozen[i]) continue;
+            const uint32_t g = global(i);
+            nodes.node[g] = cur_node[i];
+            nodes.label[g] = cur_label[i];
+            nodes.err[g] = cur_err[i];
+        }
+    }
+};
+
+}  // namespace
+
+BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
+                           const std::vector<const BrickMesh*>& input, NodeState& nodes) {
+    BrickResult r;
+    BrickDecimator d(vol, opt, box, input, nodes, r);
+    d.run();
+    r.mask_bit_count = d.mask_bit_count;
+    return r;
+}
+
+}  // namespace tetlod::mt

@@ -1,0 +1,58 @@
+#pragma once
+// Decimation of one brick of the MT build (docs/mt.md §2, "Bricks"). A brick is a box
+// of grid points; the points on its faces that are not faces of the whole volume are
+// frozen: they are neither removed nor survivors. Every tet of the brick then stays
+// inside the box, every free vertex has all its tets inside the box, and two bricks of
+// one pass touch disjoint tets and disjoint nodes, so they can run in parallel and
+// their collapses, concatenated in any fixed order, form one valid collapse sequence
+// of the whole mesh.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "tetlod/models/mt/mt_model.hpp"
+
+namespace tetlod::mt {
+
+/// Inclusive box of grid points, whole-grid coordinates.
+struct BrickBox {
+    std::array<int64_t, 3> lo{0, 0, 0}, hi{0, 0, 0};
+};
+
+/// The decimated mesh a brick hands to the next pass: its tets in whole-grid indices
+/// with their closed errors and face errors, and the removed grid points each tet
+/// owns (CSR). Orders are deterministic.
+struct BrickMesh {
+    std::vector<std::array<uint32_t, 4>> tets;
+    std::vector<float> err;
+    std::vector<std::array<float, 4>> face_err;
+    std::vector<uint32_t> point_start;  // tets.size() + 1 entries (empty: no tets)
+    std::vector<uint32_t> points;
+};
+
+/// Node state of every grid point of the whole volume. A brick reads it for its box and
+/// writes it back for its free points only, so bricks of one pass never write the
+/// same entry. Node ids of nodes a brick creates are provisional
+/// (kProvisional + collapse index in the brick) until the merge renumbers them.
+struct NodeState {
+    std::vector<uint32_t> node, label;
+    std::vector<float> err;
+};
+inline constexpr uint32_t kProvisional = 0x80000000u;
+
+struct BrickResult {
+    std::vector<MtUpdate> updates;  // w, s whole-grid; mask_offset local to `mask_bits`
+    std::vector<uint64_t> mask_bits;
+    uint64_t mask_bit_count = 0;
+    MtHistory history;  // only with record_history; provisional node ids
+    BrickMesh mesh;
+    uint64_t evaluations = 0, relocated_points = 0;
+};
+
+/// Decimates the brick. `input`: the tets of the brick (the child bricks' meshes,
+/// concatenated in a fixed order); empty: start from the reference mesh of the box.
+/// Deterministic: the result depends only on the arguments.
+BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
+                           const std::vector<const BrickMesh*>& input, NodeState& nodes);
+
+}  // namespace tetlod::mt
