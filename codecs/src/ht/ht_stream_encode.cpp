@@ -25,6 +25,7 @@
 #include "ht_container_parts.hpp"
 #include "ht_error_chunk_coder.hpp"
 #include "ht_field_chunk_coder.hpp"
+#include "tetlod/core/huge_page_allocator.hpp"
 #include "tetlod/models/ht/ht_error_sweep.hpp"
 
 namespace tetlod {
@@ -124,8 +125,8 @@ private:
         int64_t row = 0, nrows = 0;
         int64_t nx = 0, ny = 0, plane_points = 0, cap_planes = 0;
         int64_t wlo = 0;
-        std::vector<T> values;
-        std::vector<float> errors;  // cycles with diamonds only
+        HugePageVector<T> values;
+        HugePageVector<float> errors;  // cycles with diamonds only
         Geometry window;            // the coders' view of the buffer
 
         int64_t row_lo() const { return row * side; }
@@ -263,7 +264,7 @@ private:
             reset_window(r);
         }
         const std::size_t plane = planes_.plane_bytes();
-        std::vector<std::byte> window(std::size_t(S + 2 * kReach) * plane);
+        HugePageVector<std::byte> window(std::size_t(S + 2 * kReach) * plane);
         int64_t wz0 = 0, wcount = 0;
         for (int64_t za = 0; za <= zmax_; za += S) {
             const int64_t zb = std::min(za + S - 1, zmax_);

@@ -1,0 +1,56 @@
+#pragma once
+// An allocator for the large working arrays of the streaming converter (the
+// plane window, the per-cycle value and error buffers): blocks of 2 MiB or more
+// are aligned to 2 MiB and advised for transparent huge pages.
+//
+// Why: those arrays are read a few lines at a time in rows that lie a plane
+// apart (4 MiB of floats at 1025²), so with 4 KiB pages nearly every row costs
+// a TLB miss and a page walk, which the chunk coders cannot hide and which
+// make the processor drop software prefetches. Debian's default THP mode is
+// "madvise": huge pages are used only where asked for.
+#include <cstddef>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace tetlod {
+
+template <class T>
+struct HugePageAllocator {
+    using value_type = T;
+    static constexpr std::size_t kHugePage = std::size_t{2} << 20;
+
+    HugePageAllocator() noexcept = default;
+    template <class U>
+    HugePageAllocator(const HugePageAllocator<U>&) noexcept {}
+
+    T* allocate(std::size_t n) {
+        if (n > std::size_t(-1) / sizeof(T) - kHugePage) throw std::bad_alloc();
+        const std::size_t bytes = n * sizeof(T);
+        if (bytes < kHugePage) return static_cast<T*>(::operator new(bytes == 0 ? 1 : bytes));
+        const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+        void* p = std::aligned_alloc(kHugePage, rounded);
+        if (!p) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+        ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: a refusal changes nothing
+#endif
+        return static_cast<T*>(p);
+    }
+    void deallocate(T* p, std::size_t n) noexcept {
+        if (n * sizeof(T) < kHugePage) ::operator delete(p);
+        else std::free(p);
+    }
+
+    template <class U>
+    bool operator==(const HugePageAllocator<U>&) const noexcept { return true; }
+};
+
+/// A std::vector whose large storage is advised for huge pages (see above).
+template <class T>
+using HugePageVector = std::vector<T, HugePageAllocator<T>>;
+
+}  // namespace tetlod
