@@ -161,6 +161,20 @@ private:
                 const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
                 for (int64_t y = 0; y < sd.y; ++y) {
                     const T* row = plane + y * G_.nx;
+                    if constexpr (std::is_integral_v<T>) {
+                        // Integers: the extremes do not depend on the visiting
+                        // order, so the row reduces in a loop the compiler
+                        // vectorizes (the per-value loop below cost ~1 ns a point).
+                        T rlo = row[0], rhi = row[0];
+                        for (int64_t x = 1; x < sd.x; ++x) {
+                            rlo = std::min(rlo, row[x]);
+                            rhi = std::max(rhi, row[x]);
+                        }
+                        if (!ps.any) ps.lo = rlo, ps.hi = rhi, ps.any = true;
+                        ps.lo = std::min(ps.lo, rlo);
+                        ps.hi = std::max(ps.hi, rhi);
+                        continue;
+                    }
                     for (int64_t x = 0; x < sd.x; ++x) {
                         const T v = row[x];
                         if constexpr (std::is_floating_point_v<T>) {
