@@ -182,11 +182,7 @@ inline const PredictorStencils& predictor_stencils() {
     return table;
 }
 
-/// Asks for the cache lines of a chunk's lattice points (its box grown by
-/// `grow` steps of 2^t, clipped to B) before a coder walks them. The coders pass
-/// over the box once per class in rows of a few points that lie planes apart;
-/// without this the first line of each row is a miss that the range coder's
-/// serial work cannot overlap, and it was most of the error coder's time.
+/// Asks for the cache line holding p.
 inline void prefetch_line(const void* p) {
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
     // GCC deletes loops whose only effect is __builtin_prefetch (C++ loops
@@ -197,6 +193,11 @@ inline void prefetch_line(const void* p) {
 #endif
 }
 
+/// Asks for the cache lines of a chunk's lattice points (its box grown by
+/// `grow` steps of 2^t, clipped to B) before a coder walks them. The coders pass
+/// over the box once per class in rows of a few points that lie planes apart;
+/// without this the first line of each row is a miss that the range coder's
+/// serial work cannot overlap, and it was most of the error coder's time.
 template <class V>
 void prefetch_chunk(const Geometry& G, const V* data, int t, const std::array<int64_t, 6>& b, int64_t grow) {
     const int64_t h = int64_t{1} << t;
