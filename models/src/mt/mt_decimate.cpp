@@ -20,6 +20,7 @@
 #include "mt_decimate.hpp"
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/huge_page_allocator.hpp"
 
 namespace tetlod::mt {
 
@@ -78,7 +79,7 @@ struct BrickDecimator {
         float err = 0;                                       // closed error
         uint32_t head = kNil;                                // owned point list
     };
-    std::vector<TetRec> tets;
+    HugePageVector<TetRec> tets;
     std::vector<uint32_t> free_tets;
 
     // Vertices / grid points.
@@ -101,6 +102,16 @@ struct BrickDecimator {
     std::vector<Bary> nb;
     std::vector<int> old2new;
     std::vector<std::pair<double, uint32_t>> ranked;
+    struct StarFace {
+        mt::CornerPlane plane;
+        std::array<uint32_t, 3> o;
+    };
+    std::vector<StarFace> faces;
+    std::vector<uint32_t> mark;  // == mark_epoch: already collected
+    uint32_t mark_epoch = 0;
+    std::array<double, 3> physical(uint32_t p) const {
+        return {coord[p][0] * vol.spacing[0], coord[p][1] * vol.spacing[1], coord[p][2] * vol.spacing[2]};
+    }
 
     static Dims box_dims(const BrickBox& b) {
         return {b.hi[0] - b.lo[0] + 1, b.hi[1] - b.lo[1] + 1, b.hi[2] - b.lo[2] + 1};
@@ -147,6 +158,14 @@ struct BrickDecimator {
     // and whether it is exact.
     double deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
                      int64_t det, bool& exact) const {
+        if (small_int) {  // |values| < 2^20 and |det| < 2^40: the numerator fits 64 bits
+            int64_t num = ival[p] * det;
+            for (int i = 0; i < 4; ++i) num -= ival[t[i]] * d[i];
+            if (num < 0) num = -num;
+            if (num == 0) return 0.0;
+            exact = exact && num % det == 0 && num / det < (int64_t(1) << 53);
+            return double(num) / double(det);
+        }
         if (int_data) {
             __int128 num = __int128(ival[p]) * det;
             for (int i = 0; i < 4; ++i) num -= __int128(ival[t[i]]) * d[i];
@@ -193,6 +212,11 @@ struct BrickDecimator {
             cur_err[i] = nodes.err[g];
         }
         pnext.assign(n, kNil);
+        {
+            size_t count = input.empty() ? size_t(5) * size_t(grid.X - 1) * size_t(grid.Y - 1) * size_t(grid.Z - 1) : 0;
+            for (const BrickMesh* b : input) count += b->tets.size();
+            tets.reserve(count);
+        }
         if (input.empty()) {
             for (const auto& t : mt::reference_tets(grid, lo)) tets.push_back(TetRec{t});
             alive.assign(n, 1);
@@ -223,6 +247,7 @@ struct BrickDecimator {
             for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
         stamp.assign(n, 0);
         live_seq.assign(n, 0);
+        mark.assign(n, 0);
     }
 
     void push_dirty(uint32_t w, double cost) {
@@ -231,16 +256,27 @@ struct BrickDecimator {
     }
 
     // ---- link condition (docs/mt.md §2, "Legality") -------------------------
+    // Simplices of a link as sorted unique keys: an edge (a < b) packs into 64 bits, a
+    // triangle (a < b < c) into 128, so the sorts and intersections compare integers.
+    using TriKey = unsigned __int128;
+    static uint64_t edge_key(uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; }
+    static TriKey tri_key(uint32_t a, uint32_t b, uint32_t c) {
+        return TriKey(a) << 64 | TriKey(b) << 32 | c;
+    }
     struct Link {
         std::vector<uint32_t> v0;
-        std::vector<std::array<uint32_t, 2>> v1;
-        std::vector<std::array<uint32_t, 3>> v2;
-        std::vector<std::array<uint32_t, 2>> bfaces;  // boundary faces (v,a,b), a<b
-        std::vector<std::array<uint32_t, 2>> faces;   // scratch
+        std::vector<uint64_t> v1;
+        std::vector<TriKey> v2;
+        std::vector<uint64_t> bfaces;  // boundary faces (v,a,b) as edge keys of (a,b)
+        std::vector<uint64_t> faces;   // scratch
     };
-    std::vector<uint32_t> e0_, i0_;
-    std::vector<std::array<uint32_t, 2>> e1_, i1_;
-    std::vector<std::array<uint32_t, 3>> i2_;
+    std::vector<uint32_t> e0_;
+    std::vector<uint64_t> e1_;
+    template <class T>
+    static void sort_unique(std::vector<T>& x) {
+        std::sort(x.begin(), x.end());
+        x.erase(std::unique(x.begin(), x.end()), x.end());
+    }
     void build_link(uint32_t v, Link& L) const {
         L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
         auto& faces = L.faces;
@@ -250,12 +286,16 @@ struct BrickDecimator {
             int k = 0;
             for (int i = 0; i < 4; ++i)
                 if (i != int(slot)) o[k++] = tets[t].v[i];
-            std::sort(o.begin(), o.end());
-            L.v2.push_back(o);
-            L.v1.push_back({o[0], o[1]}), L.v1.push_back({o[0], o[2]}), L.v1.push_back({o[1], o[2]});
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            if (o[1] > o[2]) std::swap(o[1], o[2]);
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            L.v2.push_back(tri_key(o[0], o[1], o[2]));
+            const uint64_t e01 = edge_key(o[0], o[1]), e02 = edge_key(o[0], o[2]), e12 = edge_key(o[1], o[2]);
+            L.v1.push_back(e01), L.v1.push_back(e02), L.v1.push_back(e12);
             L.v0.push_back(o[0]), L.v0.push_back(o[1]), L.v0.push_back(o[2]);
-            faces.push_back({o[0], o[1]}), faces.push_back({o[0], o[2]}), faces.push_back({o[1], o[2]});
+            faces.push_back(e01), faces.push_back(e02), faces.push_back(e12);
         });
+        // A face (v,a,b) of one tet only is on the boundary.
         std::sort(faces.begin(), faces.end());
         for (size_t i = 0; i < faces.size();) {
             size_t j = i;
@@ -264,15 +304,23 @@ struct BrickDecimator {
             i = j;
         }
         if (!L.bfaces.empty()) L.v0.push_back(kOmega);
-        for (const auto& f : L.bfaces) {
-            L.v1.push_back({f[0], kOmega}), L.v1.push_back({f[1], kOmega});
-            L.v2.push_back({f[0], f[1], kOmega});
+        for (const uint64_t f : L.bfaces) {
+            const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
+            L.v1.push_back(edge_key(a, kOmega)), L.v1.push_back(edge_key(b, kOmega));
+            L.v2.push_back(tri_key(a, b, kOmega));
         }
-        auto uniq = [](auto& x) {
-            std::sort(x.begin(), x.end());
-            x.erase(std::unique(x.begin(), x.end()), x.end());
-        };
-        uniq(L.v0), uniq(L.v1), uniq(L.v2);
+        sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+    }
+    /// |x ∩ y| for sorted unique ranges, stopping once it exceeds `limit`.
+    template <class T>
+    static size_t common_count(const std::vector<T>& x, const std::vector<T>& y, size_t limit) {
+        size_t i = 0, j = 0, n = 0;
+        while (i < x.size() && j < y.size() && n <= limit) {
+            if (x[i] < y[j]) ++i;
+            else if (y[j] < x[i]) ++j;
+            else ++n, ++i, ++j;
+        }
+        return n;
     }
     Link lw_, ls_;
     uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
@@ -291,38 +339,27 @@ struct BrickDecimator {
             for (int i = 0; i < 4; ++i)
                 if (tets[t].v[i] != w && tets[t].v[i] != s) ab[k++] = tets[t].v[i];
             if (ab[0] > ab[1]) std::swap(ab[0], ab[1]);
-            e1.push_back(ab);
+            e1.push_back(edge_key(ab[0], ab[1]));
             e0.push_back(ab[0]), e0.push_back(ab[1]);
         });
         bool boundary_edge = false;
-        for (const auto& f : lw_.bfaces)
-            if (f[0] == s || f[1] == s) {
-                const uint32_t a = f[0] == s ? f[1] : f[0];
-                e1.push_back({a, kOmega});
+        for (const uint64_t f : lw_.bfaces) {
+            const uint32_t fa = uint32_t(f >> 32), fb = uint32_t(f);
+            if (fa == s || fb == s) {
+                const uint32_t a = fa == s ? fb : fa;
+                e1.push_back(edge_key(a, kOmega));
                 e0.push_back(a);
                 boundary_edge = true;
             }
+        }
         if (boundary_edge) e0.push_back(kOmega);
-        std::sort(e0.begin(), e0.end());
-        e0.erase(std::unique(e0.begin(), e0.end()), e0.end());
-        std::sort(e1.begin(), e1.end());
-        e1.erase(std::unique(e1.begin(), e1.end()), e1.end());
-        auto& i0 = i0_;
-        i0.clear();
-        std::set_intersection(lw_.v0.begin(), lw_.v0.end(), ls_.v0.begin(), ls_.v0.end(),
-                              std::back_inserter(i0));
-        if (i0 != e0) return ++n_link_fail, false;
-        auto& i1 = i1_;
-        i1.clear();
-        std::set_intersection(lw_.v1.begin(), lw_.v1.end(), ls_.v1.begin(), ls_.v1.end(),
-                              std::back_inserter(i1));
-        if (i1 != e1) return ++n_link_fail, false;
-        auto& i2 = i2_;
-        i2.clear();
-        std::set_intersection(lw_.v2.begin(), lw_.v2.end(), ls_.v2.begin(), ls_.v2.end(),
-                              std::back_inserter(i2));
-        if (!i2.empty()) ++n_link_fail;
-        return i2.empty();
+        sort_unique(e0), sort_unique(e1);
+        // Lk(ws) is always in Lk(w) ∩ Lk(s), so the condition is that the intersection
+        // has no more vertices and edges than Lk(ws), and no triangle.
+        if (common_count(lw_.v0, ls_.v0, e0.size()) != e0.size()) return ++n_link_fail, false;
+        if (common_count(lw_.v1, ls_.v1, e1.size()) != e1.size()) return ++n_link_fail, false;
+        if (common_count(lw_.v2, ls_.v2, 0) != 0) return ++n_link_fail, false;
+        return true;
     }
 
     // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
@@ -380,28 +417,33 @@ struct BrickDecimator {
 
     /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
     /// result is `partial` with a lower bound (docs/mt.md §2, "Order").
-    Candidate evaluate(uint32_t w, bool check_link, uint32_t prefer = kNil,
-                       double cutoff = std::numeric_limits<double>::infinity()) {
+    Candidate evaluate(uint32_t w, bool check_link, double cutoff = std::numeric_limits<double>::infinity()) {
         ++n_eval;
         gather_star(w, star_w);
         // The points are gathered only when a target gets past the face errors of the
         // link: when those alone exceed the cutoff, no point is needed (a lower bound).
         bool gathered = false;
         double link_max = 0;
+        // Per star tet: the orientation of the tet with w moved to x (a legal target
+        // keeps every one positive) and its corners other than w. The neighbours are
+        // collected with a mark per point; their order does not matter (ranked is sorted).
+        faces.clear();
         nbrs.clear();
+        ++mark_epoch;
         for (uint32_t t : star_w) {
-            const int sw = slot_of(tets[t].v, w);
+            const auto& v = tets[t].v;
+            const int sw = slot_of(v, w);
             link_max = std::max(link_max, double(tets[t].ferr[sw]));
-            for (int i = 0; i < 4; ++i)
-                if (tets[t].v[i] != w) nbrs.push_back(tets[t].v[i]);
-        }
-        std::sort(nbrs.begin(), nbrs.end());
-        nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
-        // Trying last time's winner first makes the early exits bite sooner; the
-        // result does not depend on the order (strict total order on the key).
-        if (prefer != kNil) {
-            auto it = std::find(nbrs.begin(), nbrs.end(), prefer);
-            if (it != nbrs.end()) std::rotate(nbrs.begin(), it, it + 1);
+            StarFace f;
+            f.plane = mt::corner_plane(pts_of(v), sw);
+            int k = 0;
+            for (int i = 0; i < 4; ++i) {
+                if (i == sw) continue;
+                const uint32_t u = v[i];
+                f.o[k++] = u;
+                if (mark[u] != mark_epoch) mark[u] = mark_epoch, nbrs.push_back(u);
+            }
+            faces.push_back(f);
         }
         // Rank the geometrically legal targets by shape first: a later target then
         // wins only with a strictly smaller error, so ties stop scanning at once.
@@ -409,15 +451,29 @@ struct BrickDecimator {
         // the answer is that lower bound if some target is legal, so the first legal one
         // settles it and no shape is ranked (most evaluations end here).
         const bool all_cut = link_max > cutoff;
+        const bool shaped = !all_cut || opt.max_shape_ratio > 0;
+        const double cap2 = opt.max_shape_ratio * opt.max_shape_ratio;
         ranked.clear();
         for (uint32_t s : nbrs) {
             if ((planes[w] & ~planes[s]) != 0 || frozen[s]) continue;
-            if (!make_new_tets(w, s, false)) continue;
-            double q = 0;
-            if (!all_cut || opt.max_shape_ratio > 0)
-                for (const auto& t : ntv) q = std::max(q, mt::shape_ratio(pts_of(t), vol.spacing));
-            if (opt.max_shape_ratio > 0 && q > opt.max_shape_ratio) continue;
-            ranked.push_back({q, s});
+            const Pt& cs = coord[s];
+            bool legal = true;
+            for (const StarFace& f : faces)
+                if (f.o[0] != s && f.o[1] != s && f.o[2] != s && f.plane.at(cs) <= 0) {
+                    legal = false;
+                    break;
+                }
+            if (!legal) continue;
+            double q2 = 0;
+            if (shaped) {
+                const auto ps = physical(s);
+                for (const StarFace& f : faces)
+                    if (f.o[0] != s && f.o[1] != s && f.o[2] != s)
+                        q2 = std::max(q2, mt::shape_ratio_squared(ps, physical(f.o[0]), physical(f.o[1]),
+                                                                  physical(f.o[2])));
+                if (opt.max_shape_ratio > 0 && q2 > cap2) continue;
+            }
+            ranked.push_back({std::sqrt(q2), s});
             if (all_cut) break;
         }
         if (all_cut) {
@@ -478,7 +534,10 @@ struct BrickDecimator {
     }
 
     // ---- commit w -> s --------------------------------------------------------
-    std::vector<uint32_t> star_s_scratch, mask_perm;
+    std::vector<uint32_t> star_s_scratch, mask_perm, newid, link;
+    std::vector<std::array<float, 4>> new_face_err;
+    std::vector<double> new_err;
+    std::vector<uint8_t> new_exact;
     std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> mask_keys;
 
     MtHistory::Tet node_tet(const std::array<uint32_t, 4>& t) const {
@@ -499,9 +558,12 @@ struct BrickDecimator {
         }
         if (!make_new_tets(w, s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
         // Face errors inherited by the new tets (see the file comment).
-        std::vector<std::array<float, 4>> nf(ntv.size(), {0, 0, 0, 0});
-        std::vector<double> ne(ntv.size(), 0.0);
-        std::vector<bool> nexact(ntv.size(), true);
+        auto& nf = new_face_err;
+        auto& ne = new_err;
+        auto& nexact = new_exact;
+        nf.assign(ntv.size(), {0, 0, 0, 0});
+        ne.assign(ntv.size(), 0.0);
+        nexact.assign(ntv.size(), 1);
         for (size_t i = 0; i < star_w.size(); ++i) {
             const uint32_t t = star_w[i];
             const int sw = slot_of(tets[t].v, w);
@@ -530,7 +592,7 @@ struct BrickDecimator {
             tets[t].head = kNil;
             free_tets.push_back(t);
         }
-        std::vector<uint32_t> newid(ntv.size());
+        newid.assign(ntv.size(), 0);
         for (size_t i = 0; i < star_w.size(); ++i) {
             const uint32_t t = star_w[i];
             if (old2new[i] < 0) continue;
@@ -578,7 +640,7 @@ struct BrickDecimator {
         uint32_t label = std::max(cur_label[s], cur_label[w]);
         float err = std::max(cur_err[s], cur_err[w]);
         gather_star(s, star_s_scratch);
-        std::vector<uint32_t> link;
+        link.clear();
         for (uint32_t t : star_s_scratch) {
             err = std::max(err, tets[t].err);
             for (int i = 0; i < 4; ++i)
@@ -638,7 +700,7 @@ struct BrickDecimator {
             if (fresh && e.cost > opt.max_error) break;  // fresh keys are exact or lower bounds
             if (!fresh || e.partial || !link_ok(e.w, e.s)) {
                 const double cutoff = heap.empty() ? INFINITY : heap.top().cost;
-                const Candidate c = evaluate(e.w, fresh && !e.partial, e.s, cutoff);
+                const Candidate c = evaluate(e.w, fresh && !e.partial, cutoff);
                 if (c.ok || c.partial) {
                     live_seq[e.w] = ++seq_counter;
                     heap.push(Entry{c.cost, c.quality, e.w, c.partial ? kNil : c.s, live_seq[e.w], stamp[e.w],

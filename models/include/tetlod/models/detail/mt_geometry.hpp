@@ -39,6 +39,31 @@ inline int64_t orient(const Pt& a, const Pt& b, const Pt& c, const Pt& d) {
     return bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
 }
 
+/// The orientation of tet v with its corner k moved to p, as an affine function of p:
+/// at(p) = g . p + h (at(v[k]) = orient(v)). An edge collapse that moves corner k of a
+/// tet to a target is legal for that tet iff at(target) > 0, so one function per tet
+/// tests every target of a star with a dot product.
+struct CornerPlane {
+    std::array<int64_t, 3> g{0, 0, 0};
+    int64_t h = 0;
+    int64_t at(const Pt& p) const { return g[0] * p[0] + g[1] * p[1] + g[2] * p[2] + h; }
+};
+inline CornerPlane corner_plane(const std::array<Pt, 4>& v, int k) {
+    // The face opposite k, oriented so that the sign alternates with k as in orient().
+    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    const Pt& a = v[kFace[k][0]];
+    const Pt& b = v[kFace[k][1]];
+    const Pt& c = v[kFace[k][2]];
+    const int64_t sign = (k & 1) ? -1 : 1;
+    const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+    const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
+    const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
+    CornerPlane pl;
+    pl.g = {-sign * nx, -sign * ny, -sign * nz};
+    pl.h = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
+    return pl;
+}
+
 /// Barycentric numerators of a positively oriented tet as affine functions:
 /// D_i(p) = g_i . p + h_i, with sum D_i = det. Point p is in the closed tet iff all >= 0.
 struct Bary {
@@ -109,6 +134,32 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const 
 using tetlod::geometry::tet_meets_box;
 
 /// Circumradius / shortest edge in physical coordinates (regular tet: sqrt(6)/4).
+/// The square of shape_ratio() below, from physical coordinates: one division and no
+/// square root, for ranking many candidate tets (the order of squares is the order of
+/// ratios). The tet must be positively oriented (den > 0).
+inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::array<double, 3>& p1,
+                                  const std::array<double, 3>& p2, const std::array<double, 3>& p3) {
+    auto sub = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return std::array<double, 3>{u[0] - v[0], u[1] - v[1], u[2] - v[2]};
+    };
+    auto dot = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    };
+    auto cross = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return std::array<double, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                                     u[0] * v[1] - u[1] * v[0]};
+    };
+    const auto a = sub(p1, p0), b = sub(p2, p0), c = sub(p3, p0);
+    const auto bc = cross(b, c), ca = cross(c, a), ab = cross(a, b);
+    const double den = 2.0 * dot(a, bc);
+    const double la = dot(a, a), lb = dot(b, b), lc = dot(c, c);
+    std::array<double, 3> o;
+    for (int k = 0; k < 3; ++k) o[k] = la * bc[k] + lb * ca[k] + lc * ab[k];
+    const auto e12 = sub(p2, p1), e13 = sub(p3, p1), e23 = sub(p3, p2);
+    const double shortest = std::min({la, lb, lc, dot(e12, e12), dot(e13, e13), dot(e23, e23)});
+    return dot(o, o) / (den * den * shortest);
+}
+
 inline double shape_ratio(const std::array<Pt, 4>& t, const Vec3& sp) {
     std::array<std::array<double, 3>, 4> p;
     for (int i = 0; i < 4; ++i)
