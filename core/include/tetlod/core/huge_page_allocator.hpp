@@ -1,7 +1,8 @@
 #pragma once
 // An allocator for the large working arrays of the streaming converter (the
 // plane window, the per-cycle value and error buffers): blocks of 2 MiB or more
-// are aligned to 2 MiB and advised for transparent huge pages.
+// are aligned to 2 MiB and advised for transparent huge pages; smaller ones keep
+// the type's alignment (over-aligned records such as cache-line sized tets).
 //
 // Why: those arrays are read a few lines at a time in rows that lie a plane
 // apart (4 MiB of floats at 1025²), so with 4 KiB pages nearly every row costs
@@ -31,7 +32,11 @@ struct HugePageAllocator {
     T* allocate(std::size_t n) {
         if (n > std::size_t(-1) / sizeof(T) - kHugePage) throw std::bad_alloc();
         const std::size_t bytes = n * sizeof(T);
-        if (bytes < kHugePage) return static_cast<T*>(::operator new(bytes == 0 ? 1 : bytes));
+        if (bytes < kHugePage) {
+            if constexpr (alignof(T) > __STDCPP_DEFAULT_NEW_ALIGNMENT__)
+                return static_cast<T*>(::operator new(bytes == 0 ? 1 : bytes, std::align_val_t(alignof(T))));
+            return static_cast<T*>(::operator new(bytes == 0 ? 1 : bytes));
+        }
         const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
         void* p = std::aligned_alloc(kHugePage, rounded);
         if (!p) throw std::bad_alloc();
@@ -41,8 +46,9 @@ struct HugePageAllocator {
         return static_cast<T*>(p);
     }
     void deallocate(T* p, std::size_t n) noexcept {
-        if (n * sizeof(T) < kHugePage) ::operator delete(p);
-        else std::free(p);
+        if (n * sizeof(T) >= kHugePage) std::free(p);
+        else if constexpr (alignof(T) > __STDCPP_DEFAULT_NEW_ALIGNMENT__) ::operator delete(p, std::align_val_t(alignof(T)));
+        else ::operator delete(p);
     }
 
     template <class U>
