@@ -1,10 +1,14 @@
-// Container size and speed, per real dataset (directory: argument, else $TETLOD_DATA_DIR, else shared/data beside the checkout), against (same run):
-// the raw field, zstd -19 of the raw field, and the paper's 14 bytes per point.
-// Then decode throughput against plain zstd decompression of the same bytes,
-// and the bytes read for a coarse LOD and a small full-resolution box on a 257^3
-// sample. Usage: bench_container [DATA_DIR] [--quick]
-#include <zstd.h>
-
+// The archivist's comparison (issue 13), per volume in one run: every real
+// dataset (directory: argument, else $TETLOD_DATA_DIR, else shared/data beside
+// the checkout) and generated sparse, constant, noisy and float volumes. Sizes:
+// raw, zstd -19 --long=27, HDF5 gzip-9 + shuffle, zfp reversible and zfp fixed
+// accuracy at 0.1% and 1% of the value range (bound checked on decode), and the
+// lossless .tlod (field + errors + hierarchy), its ratio to zstd-19 and where
+// its bytes go; then encode and decode MB/s of each. Lossy .tlod does not exist
+// yet. Then the bytes read for a coarse LOD and a small full-resolution box on
+// a 257^3 sample. Usage: bench_container [DATA_DIR] [--quick]
+// (--quick: generated volumes at 33^3, each timing one call, no 257^3 part).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,12 +18,16 @@
 #include <fstream>
 #include <regex>
 #include <string>
+#include <vector>
 
+#include "peer.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/converters/sample_volumes.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 
 using namespace tetlod;
+using namespace tetlod::bench;
 using Clock = std::chrono::steady_clock;
 
 static double secs(Clock::time_point a) {
@@ -39,6 +47,35 @@ static bool load_raw(const std::filesystem::path& p, Volume& v) {
     return bool(in);
 }
 
+struct Row {
+    std::string name;
+    Volume volume;
+};
+
+struct Measured {
+    std::string name;
+    uint64_t raw = 0;
+    double range = 0;
+    PeerResult zstd, hdf5, zfp_rev, zfp_fine, zfp_coarse;
+    TlodResult tlod;
+};
+
+// A size cell: bytes, "n/a" when the peer is missing, "!" after a lossless
+// peer that did not come back bit-exact or a lossy one beyond its bound.
+static std::string size_cell(const PeerResult& r, bool lossless, double bound = 0) {
+    if (!r.available) return "n/a";
+    std::string s = std::to_string(r.bytes);
+    if (lossless ? !r.exact : r.max_error > bound) s += "!";
+    return s;
+}
+
+static std::string speed_cell(const PeerResult& r) {
+    if (!r.available) return "n/a";
+    char b[32];
+    std::snprintf(b, sizeof b, "%.0f/%.0f", r.encode_mbs, r.decode_mbs);
+    return b;
+}
+
 int main(int argc, char** argv) {
     std::string dir = std::getenv("TETLOD_DATA_DIR") ? std::getenv("TETLOD_DATA_DIR") : TETLOD_DEFAULT_DATA_DIR;
     bool quick = false;
@@ -46,57 +83,81 @@ int main(int argc, char** argv) {
         if (std::string(argv[i]) == "--quick") quick = true;
         else dir = argv[i];
     }
-    std::printf("%-40s %9s %9s %9s %9s %8s %8s %8s %7s %9s %9s\n", "dataset", "points", "raw B/pt",
-                "zstd19", "tlod", "field", "errors", "paper", "<zstd?", "dec MB/s", "zstd MB/s");
+    const double min_seconds = quick ? 0 : 0.2;
+    const std::string tmp = std::filesystem::temp_directory_path().string();
+
+    std::vector<Row> rows;
     std::vector<std::filesystem::path> files;
     if (std::filesystem::is_directory(dir))
         for (auto& e : std::filesystem::directory_iterator(dir))
             if (e.path().extension() == ".raw") files.push_back(e.path());
     std::sort(files.begin(), files.end());
     for (const auto& p : files) {
-        Volume v;
-        if (!load_raw(p, v)) continue;
-        const double n = double(v.count());
-        // zstd -19 of the raw field, and its decompression speed.
-        std::vector<char> z(ZSTD_compressBound(v.data.size()));
-        const std::size_t zn = ZSTD_compress(z.data(), z.size(), v.data.data(), v.data.size(), 19);
-        std::vector<std::byte> back(v.data.size());
-        auto t0 = Clock::now();
-        int reps = 0;
-        do {
-            ZSTD_decompress(back.data(), back.size(), z.data(), zn);
-            ++reps;
-        } while (secs(t0) < 0.3);
-        const double zstd_mbs = double(v.data.size()) * reps / secs(t0) / 1e6;
-
-        tlod::Metadata meta = tlod::metadata_for_volume(v);
-        HtModel model = HtModel::build(v);
-        tlod::ContainerWriter w;
-        encode_ht(model, meta, w);
-        auto file = w.finish();
-        uint64_t field = 0, errs = 0;
-        auto r = tlod::ContainerReader::from_memory(file);
-        for (const auto& s : r->sections()) {
-            if (s.type == tlod::kSectionHtField) field += s.stored_size;
-            if (s.type == tlod::kSectionHtErrors) errs += s.stored_size;
-        }
-        t0 = Clock::now();
-        reps = 0;
-        do {
-            auto rr = tlod::ContainerReader::from_memory(file);
-            auto d = decode_volume(*rr);
-            if (!d || d->data != v.data) {
-                std::fprintf(stderr, "%s: round trip FAILED\n", p.filename().c_str());
-                return 1;
-            }
-            ++reps;
-        } while (secs(t0) < 0.3);
-        const double dec_mbs = double(v.data.size()) * reps / secs(t0) / 1e6;
-        std::printf("%-40s %9.0f %9.3f %9.3f %9.3f %8.3f %8.3f %8.1f %7s %9.0f %9.0f\n",
-                    p.filename().c_str(), n, double(v.data.size()) / n, double(zn) / n,
-                    double(file.size()) / n, double(field) / n, double(errs) / n, 14.0,
-                    file.size() < zn ? "yes" : "no", dec_mbs, zstd_mbs);
+        Row r{p.stem().string(), {}};
+        if (load_raw(p, r.volume)) rows.push_back(std::move(r));
     }
+    // Generated cases (converters/sample_volumes.hpp): 129^3 for the integer
+    // ones (bucky 128^3's size), 65^3 for the float ones.
+    const int64_t gi = quick ? 33 : 129, gf = quick ? 33 : 65;
+    const struct { const char* sample; int64_t n; ValueType type; } generated[] = {
+        {"sparse", gi, ValueType::U8},          {"constant", gi, ValueType::U8},
+        {"noisy", gi, ValueType::U8},           {"multiscale", gf, ValueType::U16},
+        {"multiscale", gf, ValueType::F32},     {"noisy", gf, ValueType::F32},
+    };
+    for (const auto& g : generated) {
+        const Dims d{g.n, g.n, g.n};
+        rows.push_back({"gen:" + std::string(g.sample) + "_" + std::to_string(g.n) + "^3_" +
+                            value_type_name(g.type),
+                        make_sample_volume(g.sample, d, g.type)});
+    }
+
+    std::vector<Measured> ms;
+    for (const Row& row : rows) {
+        const Volume& v = row.volume;
+        Measured m;
+        m.name = row.name;
+        m.raw = v.data.size();
+        const auto range = v.range();
+        m.range = range[1] - range[0];
+        m.zstd = run_zstd(v, 19, 27, min_seconds);
+        m.hdf5 = run_hdf5_gzip(v, 9, tmp, min_seconds);
+        m.zfp_rev = run_zfp_reversible(v, min_seconds);
+        m.zfp_fine = run_zfp_accuracy(v, 0.001 * m.range, min_seconds);
+        m.zfp_coarse = run_zfp_accuracy(v, 0.01 * m.range, min_seconds);
+        m.tlod = run_tlod(v, tmp, min_seconds);
+        if (!m.tlod.exact) {
+            std::fprintf(stderr, "%s: .tlod round trip FAILED\n", row.name.c_str());
+            return 1;
+        }
+        ms.push_back(std::move(m));
+        std::fprintf(stderr, "measured %s\n", row.name.c_str());
+    }
+
+    std::printf("Sizes in bytes (zfp at 0.1%% and 1%% of the value range, absolute bound; \"!\": not bit-exact "
+                "or beyond the bound)\n");
+    std::printf("%-36s %9s %9s %9s %9s %9s %9s %9s %9s %6s %6s %6s\n", "volume", "raw", "zstd19L", "h5gz9shuf",
+                "zfp-rev", "zfp-0.1%", "zfp-1%", "tlod", "tlod/zst", "field%", "error%", "other%");
+    for (const auto& m : ms) {
+        const double t = double(m.tlod.bytes);
+        std::printf("%-36s %9llu %9s %9s %9s %9s %9s %9llu %9.3f %6.1f %6.1f %6.1f\n", m.name.c_str(),
+                    (unsigned long long)m.raw, size_cell(m.zstd, true).c_str(), size_cell(m.hdf5, true).c_str(),
+                    size_cell(m.zfp_rev, true).c_str(), size_cell(m.zfp_fine, false, 0.001 * m.range).c_str(),
+                    size_cell(m.zfp_coarse, false, 0.01 * m.range).c_str(), (unsigned long long)m.tlod.bytes,
+                    t / double(m.zstd.bytes), 100 * double(m.tlod.field_bytes) / t,
+                    100 * double(m.tlod.error_bytes) / t, 100 * double(m.tlod.other_bytes) / t);
+    }
+    std::printf("lossy .tlod at 0.1%% and 1%% of the range: n/a (not implemented)\n");
+    std::printf("\nEncode/decode MB/s of raw samples (%s)\n",
+                quick ? "one call each" : "each repeated for at least 0.2 s");
+    std::printf("%-36s %11s %11s %11s %11s %11s %11s\n", "volume", "zstd19L", "h5gz9shuf", "zfp-rev", "zfp-0.1%",
+                "zfp-1%", "tlod");
+    for (const auto& m : ms)
+        std::printf("%-36s %11s %11s %11s %11s %11s %11s\n", m.name.c_str(), speed_cell(m.zstd).c_str(),
+                    speed_cell(m.hdf5).c_str(), speed_cell(m.zfp_rev).c_str(), speed_cell(m.zfp_fine).c_str(),
+                    speed_cell(m.zfp_coarse).c_str(), speed_cell(m.tlod).c_str());
+    int above = 0;
+    for (const auto& m : ms) above += m.tlod.bytes > m.zstd.bytes;
+    std::printf("\n.tlod larger than zstd -19 --long=27 on %d of %zu volumes\n", above, ms.size());
     if (quick) return 0;
 
     // A 257^3 16-bit sample: smooth blobs plus noise.

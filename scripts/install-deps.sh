@@ -10,6 +10,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libxxhash-dev
   libopenvdb-dev libboost-iostreams-dev
   libhdf5-dev hdf5-tools
+  libzfp-dev  # optional: only bench_container's zfp peer (its columns say n/a without it)
   libopenmesh-dev
   clang libclang-rt-14-dev
   python3 python3-numpy python3-vtk9 python3-meshio python3-h5py gmsh

@@ -87,8 +87,18 @@ int run_info(const InfoArgs& a) {
             j["sections"].push_back({{"index", i}, {"type", tlod::section_type_name(s.type)},
                                      {"type_id", s.type}, {"flags", s.flags}, {"offset", s.offset},
                                      {"stored_size", s.stored_size}, {"raw_size", s.raw_size},
-                                     {"arg0", s.arg0}, {"arg1", s.arg1}});
+                                     {"arg0", s.arg0}, {"arg1", s.arg1},
+                                     {"coder", section_coder(s, info.ht_residual_coding)}});
         }
+        // Issue 13: which coder each kind of section uses and what it costs.
+        j["coders"] = nlohmann::json::array();
+        for (const auto& c : info.coders)
+            j["coders"].push_back({{"section", c.section}, {"type_id", c.type}, {"coder", c.coder},
+                                   {"description", c.description}, {"count", c.count},
+                                   {"empty", c.empty}, {"stored_bytes", c.stored_bytes},
+                                   {"raw_bytes", c.raw_bytes},
+                                   {"share", double(c.stored_bytes) / double(h.file_size)}});
+        j["framing_bytes"] = tlod::kHeaderSize + uint64_t{tlod::kTableEntrySize} * secs.size();
         j["bytes_read"] = info.bytes_read;
         // User metadata values are arbitrary bytes (spec): never fail on them.
         out() << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
@@ -137,15 +147,28 @@ int run_info(const InfoArgs& a) {
             o << line;
         }
     }
+    // Where the bytes go: one row per section type and coder (header and table
+    // are the rest of the file).
+    o << "  sections      coder               count  empty   stored bytes      raw bytes  of file\n";
+    for (const auto& c : info.coders) {
+        char line[200];
+        std::snprintf(line, sizeof line, "  %-12s  %-18s %6llu %6llu %14llu %14llu  %5.1f%%\n",
+                      c.section.c_str(), c.coder.c_str(), (unsigned long long)c.count,
+                      (unsigned long long)c.empty, (unsigned long long)c.stored_bytes,
+                      (unsigned long long)c.raw_bytes, 100.0 * double(c.stored_bytes) / double(h.file_size));
+        o << line;
+    }
+    const uint64_t framing = tlod::kHeaderSize + uint64_t{tlod::kTableEntrySize} * secs.size();
+    o << "  header+table  " << framing << " bytes\n";
     if (a.sections) {
-        o << "  section  type          flags      offset     stored        raw  arg0  arg1\n";
+        o << "  section  type          flags      offset     stored        raw  arg0  arg1  coder\n";
         for (std::size_t i = 0; i < secs.size(); ++i) {
             const auto& s = secs[i];
             char line[160];
-            std::snprintf(line, sizeof line, "  %7zu  %-12s  0x%02x %11llu %10llu %10llu %5u %5u\n", i,
+            std::snprintf(line, sizeof line, "  %7zu  %-12s  0x%02x %11llu %10llu %10llu %5u %5u  %s\n", i,
                           tlod::section_type_name(s.type), s.flags, (unsigned long long)s.offset,
                           (unsigned long long)s.stored_size, (unsigned long long)s.raw_size, s.arg0,
-                          s.arg1);
+                          s.arg1, section_coder(s, info.ht_residual_coding).c_str());
             o << line;
         }
     }

@@ -96,6 +96,7 @@ Expected<ContainerInfo> inspect_container(const std::string& path) {
         if (!l) return l.failure();
         info.ht = ht_info(*l, info.sections);
         info.metadata = l->metadata;
+        info.ht_residual_coding = l->residual_coding;
     }
     if (container_has_mt(*r)) {
         auto l = read_mt_layout(*r);
@@ -104,6 +105,7 @@ Expected<ContainerInfo> inspect_container(const std::string& path) {
         if (!info.ht) info.metadata = l->metadata;
     }
     if (!info.ht && !info.mt) return fail(ErrorCode::NotFound, path + ": the container holds no model");
+    info.coders = section_coders(info.sections, info.ht_residual_coding);
     info.bytes_read = r->bytes_read();
     return info;
 }

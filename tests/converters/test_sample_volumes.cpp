@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
 
@@ -94,8 +96,27 @@ TEST(SampleVolumes, FieldsLieInUnitRange) {
         const auto r = v.range();
         EXPECT_GE(r[0], 0.0) << name;
         EXPECT_LE(r[1], 1.0) << name;
-        EXPECT_GT(r[1] - r[0], 0.3) << name << " should not be nearly constant";
+        if (name != "constant") EXPECT_GT(r[1] - r[0], 0.3) << name << " should not be nearly constant";
     }
+}
+
+TEST(SampleVolumes, ArchivalCases) {
+    const Dims d{65, 65, 65};
+    const Volume c = make_sample_volume("constant", d);
+    EXPECT_EQ(c.range(), (std::array<double, 2>{128, 128}));  // round(0.5 * 255)
+
+    // sparse: about 99% exact zeros.
+    const Volume s = make_sample_volume("sparse", d);
+    const auto* p = s.as<uint8_t>();
+    const auto zeros = std::count(p, p + s.count(), uint8_t{0});
+    EXPECT_GT(double(zeros) / double(s.count()), 0.98);
+    EXPECT_LT(double(zeros) / double(s.count()), 0.999);
+
+    // noisy: neighbours differ by the noise, not only by the smooth part.
+    const Volume n = make_sample_volume("noisy", d, ValueType::F32);
+    double diff = 0;
+    for (int64_t i = 0; i + 1 < d.x; ++i) diff += std::abs(n.value(i + 1, 32, 32) - n.value(i, 32, 32));
+    EXPECT_GT(diff / double(d.x - 1), 0.03);
 }
 
 TEST(SampleVolumes, SphereIsRadial) {

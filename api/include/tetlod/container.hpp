@@ -118,6 +118,30 @@ struct MtInfo {
     bool field_from_ht = false;  // the MT shares the HT's field sections
     uint64_t header_bytes = 0, structure_bytes = 0, section_bytes = 0;
 };
+/// The sections of one type coded one way, summed (issue 13: where the bytes
+/// go). The coder follows from the section's type, its ZSTD flag and, for the
+/// HT chunks, the HT_HEADER's Residual_Coding: every chunk of a file is coded
+/// the same way (the format has no per-chunk choice yet), so one row per
+/// section type is the whole story, known without decoding anything.
+struct SectionCoderInfo {
+    uint32_t type = 0;        // tlod::SectionType (or an unknown id)
+    std::string section;      // tlod::section_type_name(type)
+    /// Short stable id: "stored", "zstd", "ht-range-v2" (HT_FIELD, HT_ERRORS of
+    /// coding 2), "ht-planes-v1" (coding 1 byte planes; "+zstd" when flagged),
+    /// "mt-zstd-payload" (MT_STRUCTURE), "unknown".
+    std::string coder;
+    std::string description;  // one line for people, naming the spec section
+    uint64_t count = 0;       // sections of this type
+    uint64_t empty = 0;       // of them, with no stored bytes (empty chunks)
+    uint64_t stored_bytes = 0, raw_bytes = 0;
+};
+/// One row per section type present, in the order the types first appear in
+/// the file. `ht_residual_coding`: the HT_HEADER's Residual_Coding (0: no HT).
+std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,
+                                             int ht_residual_coding);
+/// The coder id of one section (as in SectionCoderInfo::coder).
+std::string section_coder(const tlod::SectionInfo& section, int ht_residual_coding);
+
 /// Everything `tetlod info` shows: header, metadata, models, section table.
 struct ContainerInfo {
     std::string path;
@@ -126,6 +150,8 @@ struct ContainerInfo {
     std::optional<HtInfo> ht;
     std::optional<MtInfo> mt;
     std::vector<tlod::SectionInfo> sections;
+    std::vector<SectionCoderInfo> coders;  // section_coders(sections, ...)
+    int ht_residual_coding = 0;            // HT_HEADER's, 0 without an HT
     uint64_t bytes_read = 0;  // bytes the inspection read from the file
     /// A format key of the metadata, empty when absent.
     std::string format_key(const std::string& key) const;

@@ -1,6 +1,9 @@
 #include "tetlod/converters/sample_volumes.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <type_traits>
@@ -40,6 +43,44 @@ double sphere(double x, double y, double z) {
     return 1.0 - std::sqrt(x * x + y * y + z * z) / std::numbers::sqrt3;
 }
 
+// Archival test cases (issue 13): what general-purpose compressors handle well
+// and a predictive coder may not.
+
+// A few small blobs in emptiness: about 99% of the samples are exactly 0, like
+// a segmented angiogram or a density far from its molecule.
+double sparse(double x, double y, double z) {
+    constexpr double c[5][3] = {{-0.5, -0.4, -0.3}, {0.4, 0.5, -0.6}, {0.1, -0.6, 0.55},
+                                {-0.6, 0.45, 0.5}, {0.55, -0.1, 0.1}};
+    double f = 0;
+    for (const auto& p : c) {
+        const double d2 = (x - p[0]) * (x - p[0]) + (y - p[1]) * (y - p[1]) + (z - p[2]) * (z - p[2]);
+        const double r2 = 0.15 * 0.15;  // 5 balls of radius 0.15: 0.9% of the cube
+        if (d2 < r2) f = std::max(f, 1.0 - d2 / r2);
+    }
+    return f;
+}
+
+double constant(double, double, double) { return 0.5; }
+
+// Uniform in [0,1) from the coordinates' bits (splitmix64 finaliser): white
+// noise, deterministic and the same on every machine.
+double white_noise(double x, double y, double z) {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (double c : {x, y, z}) {
+        uint64_t b;
+        std::memcpy(&b, &c, sizeof b);
+        h ^= b + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+        h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+        h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+        h ^= h >> 31;
+    }
+    return double(h >> 11) * 0x1.0p-53;
+}
+
+// A smooth field under measurement noise: the multiscale field at 80% plus
+// 20% white noise (several noisy low bits per sample, as in a scan).
+double noisy(double x, double y, double z) { return 0.8 * multiscale(x, y, z) + 0.2 * white_noise(x, y, z); }
+
 struct Sample {
     const char* name;
     Field field;
@@ -49,6 +90,9 @@ constexpr Sample kSamples[] = {
     {"marschner-lobb", marschner_lobb},
     {"multiscale", multiscale},
     {"sphere", sphere},
+    {"sparse", sparse},
+    {"constant", constant},
+    {"noisy", noisy},
 };
 
 // Maps f in [0,1] onto the full range of the integer type T (f is clamped first

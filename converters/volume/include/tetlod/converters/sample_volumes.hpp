@@ -32,6 +32,18 @@
 //  "sphere"  Distance-like radial field: f = 1 - r / sqrt(3), 1 at the centre,
 //      0 at the cube corners. The isosurface f = v is the sphere of radius
 //      sqrt(3) (1 - v), e.g. v = 0.5 gives radius 0.866.
+//
+// Archival cases (issue 13), hard for a predictive coder in other ways:
+//
+//  "sparse"  Five balls of radius 0.15 (centres fixed in the source), f = 1 -
+//      d^2 / 0.15^2 inside each (the largest where they meet), 0 elsewhere:
+//      about 99% of the samples are exactly 0.
+//
+//  "constant"  f = 0.5 everywhere.
+//
+//  "noisy"  0.8 multiscale + 0.2 u, u uniform white noise in [0, 1) hashed from
+//      the coordinates' bit patterns (splitmix64): smooth structure under
+//      several bits of noise per sample, still deterministic.
 #include <string>
 #include <vector>
 

@@ -1,0 +1,73 @@
+// Which coder each section of a container uses, and its bytes (see
+// container.hpp, SectionCoderInfo). Reads nothing: the section table and the
+// HT_HEADER already say it all.
+#include <algorithm>
+
+#include "tetlod/container.hpp"
+
+namespace tetlod {
+
+namespace {
+
+bool zstd_flagged(const tlod::SectionInfo& s) { return (s.flags & tlod::kSectionZstd) != 0; }
+
+std::string describe(const std::string& coder, uint32_t type) {
+    if (coder == "stored") return "raw bytes, no compression";
+    if (coder == "zstd") return "one zstd frame (§4.2; the level is not recorded)";
+    if (coder == "mt-zstd-payload") return "7 streams in one zstd frame (§10.2)";
+    if (coder == "unknown") return "unknown section type (skipped)";
+    const bool field = type == tlod::kSectionHtField;
+    if (coder == "ht-range-v2")
+        return field ? "neighbour prediction, adaptive range coder (§7.4-7.6)"
+                     : "lattice-bound prediction, adaptive range coder (§8.3)";
+    const std::string planes = field ? "coarse-mean prediction, zigzag byte planes (§7.2-7.3)"
+                                     : "spine prediction, byte planes (§8.2)";
+    return coder == "ht-planes-v1+zstd" ? planes + " in a zstd frame" : planes;
+}
+
+}  // namespace
+
+std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
+    switch (s.type) {
+        case tlod::kSectionHtField:
+        case tlod::kSectionHtErrors:
+            // Coding 2 forbids the ZSTD flag (§4.3), so the flag only matters for 1.
+            if (ht_residual_coding == 2) return "ht-range-v2";
+            return zstd_flagged(s) ? "ht-planes-v1+zstd" : "ht-planes-v1";
+        case tlod::kSectionMtStructure:
+            // Never flagged ZSTD: the frame is part of the MT's own encoding.
+            return "mt-zstd-payload";
+        case tlod::kSectionMetadata:
+        case tlod::kSectionHtHeader:
+        case tlod::kSectionMtHeader:
+            return zstd_flagged(s) ? "zstd" : "stored";
+        default:
+            return "unknown";
+    }
+}
+
+std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,
+                                             int ht_residual_coding) {
+    std::vector<SectionCoderInfo> rows;
+    for (const auto& s : sections) {
+        const std::string coder = section_coder(s, ht_residual_coding);
+        auto it = std::find_if(rows.begin(), rows.end(),
+                               [&](const SectionCoderInfo& r) { return r.type == s.type && r.coder == coder; });
+        if (it == rows.end()) {
+            SectionCoderInfo r;
+            r.type = s.type;
+            r.section = tlod::section_type_name(s.type);
+            r.coder = coder;
+            r.description = describe(coder, s.type);
+            rows.push_back(r);
+            it = rows.end() - 1;
+        }
+        ++it->count;
+        if (s.stored_size == 0) ++it->empty;
+        it->stored_bytes += s.stored_size;
+        it->raw_bytes += s.raw_size;
+    }
+    return rows;
+}
+
+}  // namespace tetlod

@@ -1,0 +1,37 @@
+// The .tlod container as a user makes and reads it: write_container to a file,
+// decode_container back (both public API calls, file I/O included).
+#include <filesystem>
+
+#include "peer.hpp"
+#include "tetlod/container.hpp"
+
+namespace tetlod::bench {
+
+TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seconds) {
+    TlodResult r;
+    r.available = true;
+    const std::string path = (std::filesystem::path(tmp_dir) / "bench_peer.tlod").string();
+    ContainerWriteOptions o;
+    o.created = 0;  // no clock read: the same bytes every run
+    const double enc = seconds_per_call(
+        [&] {
+            std::filesystem::remove(path);
+            write_container(v, path, o);
+        },
+        min_seconds);
+    r.bytes = std::filesystem::file_size(path);
+    for (const auto& c : inspect_container(path).take().coders) {
+        if (c.type == tlod::kSectionHtField) r.field_bytes += c.stored_bytes;
+        else if (c.type == tlod::kSectionHtErrors) r.error_bytes += c.stored_bytes;
+    }
+    r.other_bytes = r.bytes - r.field_bytes - r.error_bytes;
+    Volume back;
+    const double dec = seconds_per_call([&] { back = decode_container(path).take(); }, min_seconds);
+    r.exact = back.type == v.type && back.data == v.data;
+    r.encode_mbs = double(v.data.size()) / enc / 1e6;
+    r.decode_mbs = double(v.data.size()) / dec / 1e6;
+    std::filesystem::remove(path);
+    return r;
+}
+
+}  // namespace tetlod::bench

@@ -1,0 +1,110 @@
+// Issue 13 Must 4: the coder of every section and its bytes, from the library
+// (inspect_container / section_coders) without decoding anything. Checked
+// against the section table itself: the rows partition the sections, so their
+// bytes plus the header and table are exactly the file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "tetlod/tetlod.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace tetlod;
+
+std::string tmp(const std::string& name) { return std::string(TETLOD_TEST_TMP) + "/" + name; }
+
+const SectionCoderInfo* row(const ContainerInfo& info, const std::string& section) {
+    for (const auto& c : info.coders)
+        if (c.section == section) return &c;
+    return nullptr;
+}
+
+// Every section in exactly one row; bytes add up to the file.
+void expect_partition(const ContainerInfo& info) {
+    uint64_t count = 0, stored = 0;
+    for (const auto& c : info.coders) {
+        count += c.count;
+        stored += c.stored_bytes;
+        EXPECT_FALSE(c.description.empty()) << c.section;
+    }
+    EXPECT_EQ(count, info.sections.size());
+    EXPECT_EQ(stored + tlod::kHeaderSize + tlod::kTableEntrySize * info.sections.size(), info.header.file_size);
+}
+
+}  // namespace
+
+TEST(ContainerCoders, HtOnly) {
+    const std::string path = tmp("coders_ht.tlod");
+    write_container(make_sample_volume("sparse", Dims{33, 33, 33}), path);
+    const ContainerInfo info = inspect_container(path).take();
+    expect_partition(info);
+    EXPECT_EQ(info.ht_residual_coding, 2);
+    ASSERT_EQ(info.coders.size(), 4u);  // METADATA, HT_HEADER, HT_FIELD, HT_ERRORS
+    EXPECT_EQ(row(info, "METADATA")->coder, "zstd");
+    EXPECT_EQ(row(info, "HT_HEADER")->coder, "stored");
+    const auto* field = row(info, "HT_FIELD");
+    const auto* errors = row(info, "HT_ERRORS");
+    ASSERT_TRUE(field && errors);
+    EXPECT_EQ(field->coder, "ht-range-v2");
+    EXPECT_EQ(errors->coder, "ht-range-v2");
+    // One field and one error section per chunk; the corner chunk has no diamonds.
+    EXPECT_EQ(field->count, errors->count);
+    EXPECT_GE(errors->empty, 1u);
+    uint64_t chunks = 0, field_bytes = 0, error_bytes = 0;
+    for (const auto& c : info.ht->cycles) {
+        chunks += c.chunks;
+        field_bytes += c.field_bytes;
+        error_bytes += c.error_bytes;
+    }
+    EXPECT_EQ(field->count, chunks);
+    EXPECT_EQ(field->stored_bytes, field_bytes);
+    EXPECT_EQ(errors->stored_bytes, error_bytes);
+    for (const auto& s : info.sections) {
+        const std::string c = section_coder(s, info.ht_residual_coding);
+        EXPECT_EQ(c, row(info, tlod::section_type_name(s.type))->coder);
+    }
+}
+
+TEST(ContainerCoders, HtAndMt) {
+    const std::string path = tmp("coders_both.tlod");
+    ContainerWriteOptions o;
+    o.mt = true;
+    write_container(make_sample_volume("marschner-lobb", Dims{9, 9, 9}), path, o);
+    const ContainerInfo info = inspect_container(path).take();
+    expect_partition(info);
+    ASSERT_EQ(info.coders.size(), 6u);
+    EXPECT_EQ(row(info, "MT_HEADER")->coder, "stored");
+    EXPECT_EQ(row(info, "MT_HEADER")->count, 1u);
+    EXPECT_EQ(row(info, "MT_STRUCTURE")->coder, "mt-zstd-payload");
+    EXPECT_EQ(row(info, "MT_STRUCTURE")->stored_bytes, info.mt->structure_bytes);
+}
+
+// Format 1.0 (Residual_Coding 1): byte planes in zstd frames, named as such.
+TEST(ContainerCoders, Version1Planes) {
+    const std::string path = std::string(TETLOD_SPEC_DIR) + "/test-vectors/ht_v1_i16_17x17x17.tlod";
+    const ContainerInfo info = inspect_container(path).take();
+    expect_partition(info);
+    EXPECT_EQ(info.ht_residual_coding, 1);
+    EXPECT_EQ(row(info, "HT_FIELD")->coder, "ht-planes-v1+zstd");
+    EXPECT_EQ(row(info, "HT_ERRORS")->coder, "ht-planes-v1+zstd");
+    EXPECT_NE(row(info, "HT_FIELD")->description.find("§7.2"), std::string::npos);
+}
+
+TEST(ContainerCoders, UnknownSectionsHaveTheirOwnRow) {
+    std::vector<tlod::SectionInfo> secs(3);
+    secs[0].type = tlod::kSectionMetadata;
+    secs[0].flags = tlod::kSectionZstd | tlod::kSectionCritical;
+    secs[0].stored_size = 10;
+    secs[1].type = 99;
+    secs[1].stored_size = 7;
+    secs[2].type = 99;
+    const auto rows = section_coders(secs, 0);
+    ASSERT_EQ(rows.size(), 2u);
+    EXPECT_EQ(rows[1].coder, "unknown");
+    EXPECT_EQ(rows[1].count, 2u);
+    EXPECT_EQ(rows[1].empty, 1u);
+    EXPECT_EQ(rows[1].stored_bytes, 7u);
+}
