@@ -65,28 +65,45 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     nodes.err.assign(n, 0.0f);
 
     const std::array<int64_t, 3> cells{vol.dims.x - 1, vol.dims.y - 1, vol.dims.z - 1};
-    const int64_t largest = std::max({cells[0], cells[1], cells[2]});
-    int64_t size = options.brick_cells == 0 ? largest : std::min<int64_t>(options.brick_cells, largest);
+    // Brick faces per axis, pass 0: as few bricks as keep every one within brick_cells,
+    // of even sizes (a remainder brick of a few cells would leave its neighbour alone
+    // in a pass: 67 cells are 3 x 22-23, not 32 + 32 + 3). Each later pass keeps every
+    // other face, so its bricks are unions of 2 x 2 x 2 children.
+    std::array<std::vector<int64_t>, 3> faces;
+    for (int a = 0; a < 3; ++a) {
+        const int64_t count =
+            options.brick_cells == 0 ? 1 : std::max<int64_t>(1, (cells[a] + options.brick_cells - 1) / options.brick_cells);
+        for (int64_t i = 0; i <= count; ++i) faces[a].push_back(i * cells[a] / count);
+    }
     std::array<int64_t, 3> prev_count{0, 0, 0};
     std::vector<mt::BrickMesh> prev;
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    for (;;) {
+    for (bool first_pass = true;; first_pass = false) {
+        if (!first_pass)
+            for (auto& f : faces) {
+                std::vector<int64_t> kept;
+                for (size_t i = 0; i < f.size(); i += 2) kept.push_back(f[i]);
+                if (kept.back() != f.back()) kept.push_back(f.back());
+                f = std::move(kept);
+            }
         std::array<int64_t, 3> count;
-        for (int a = 0; a < 3; ++a) count[a] = (cells[a] + size - 1) / size;
+        for (int a = 0; a < 3; ++a) count[a] = int64_t(faces[a].size()) - 1;
         const size_t bricks = size_t(count[0] * count[1] * count[2]);
+        int64_t largest_brick = 0;
         std::vector<mt::BrickBox> boxes(bricks);
         std::vector<std::vector<const mt::BrickMesh*>> inputs(bricks);
         for (size_t b = 0; b < bricks; ++b) {
             const std::array<int64_t, 3> at{int64_t(b) % count[0], int64_t(b) / count[0] % count[1],
                                             int64_t(b) / (count[0] * count[1])};
             for (int a = 0; a < 3; ++a) {
-                boxes[b].lo[a] = at[a] * size;
-                boxes[b].hi[a] = std::min((at[a] + 1) * size, cells[a]);
+                boxes[b].lo[a] = faces[a][size_t(at[a])];
+                boxes[b].hi[a] = faces[a][size_t(at[a]) + 1];
+                largest_brick = std::max(largest_brick, boxes[b].hi[a] - boxes[b].lo[a]);
             }
             if (prev.empty()) continue;
-            // The children: bricks of half the size, in raster order.
+            // The children: the previous pass's bricks inside this one, in raster order.
             for (int64_t z = 2 * at[2]; z < std::min(2 * at[2] + 2, prev_count[2]); ++z)
                 for (int64_t y = 2 * at[1]; y < std::min(2 * at[1] + 2, prev_count[1]); ++y)
                     for (int64_t x = 2 * at[0]; x < std::min(2 * at[0] + 2, prev_count[0]); ++x)
@@ -133,13 +150,12 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(r.mesh));
         }
         if (stats)
-            std::fprintf(stderr, "mt build: pass of %zu bricks of %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",
-                         bricks, (long long)size, most_in_flight.load(),
+            std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",
+                         bricks, (long long)largest_brick, most_in_flight.load(),
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size());
         prev_count = count;
         if (bricks == 1) break;
-        size *= 2;
     }
     m.base_ = std::move(prev.front().tets);
     if (options.record_history)

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <numeric>
 #include <queue>
 
 #include "mt_decimate.hpp"
@@ -612,6 +613,15 @@ struct BrickDecimator {
         }
         vhead[w] = kNil;
         // Relocate the points.
+        auto account = [&](uint32_t p, int jj, const std::array<int64_t, 4>& dd) {
+            bool exact = true;
+            const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
+            if (dev > ne[jj]) ne[jj] = dev;
+            if (!exact) nexact[jj] = false;
+            const float fd = mt::round_up_float(dev, exact);
+            for (int k = 0; k < 4; ++k)
+                if (dd[k] == 0) nf[jj][k] = std::max(nf[jj][k], fd);
+        };
         std::array<int64_t, 4> d;
         for (size_t i = 0; i < pts.size(); ++i) {
             const uint32_t p = pts[i];
@@ -620,22 +630,36 @@ struct BrickDecimator {
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
             point[p].next = tets[newid[j]].head;
             tets[newid[j]].head = p;
-            auto account = [&](int jj, const std::array<int64_t, 4>& dd) {
-                bool exact = true;
-                const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
-                if (dev > ne[jj]) ne[jj] = dev;
-                if (!exact) nexact[jj] = false;
-                const float fd = mt::round_up_float(dev, exact);
-                for (int k = 0; k < 4; ++k)
-                    if (dd[k] == 0) nf[jj][k] = std::max(nf[jj][k], fd);
-            };
-            account(j, d);
+            account(p, j, d);
             if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
                 std::array<int64_t, 4> d2;
                 for (size_t k = 0; k < ntv.size(); ++k)
-                    if (int(k) != j && nb[k].locate(point[p].c, d2)) account(int(k), d2);
+                    if (int(k) != j && nb[k].locate(point[p].c, d2)) account(p, int(k), d2);
             }
         }
+        // A removed point on an edge of a new tet can be owned by a tet outside the star
+        // that shares only that edge: it is then neither relocated here nor on a face
+        // whose error is inherited. Its deviation is the same in every tet around the
+        // edge (on an edge the interpolant depends on the two ends only), so each new
+        // tet takes it from the lattice points of its own edges. Edges of at most one
+        // cell per axis, most of them, have none.
+        for (size_t j = 0; j < ntv.size(); ++j)
+            for (int e0 = 0; e0 < 3; ++e0)
+                for (int e1 = e0 + 1; e1 < 4; ++e1) {
+                    const Pt& a = point[ntv[j][e0]].c;
+                    const Pt& b = point[ntv[j][e1]].c;
+                    const int64_t dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+                    if ((std::abs(dx) | std::abs(dy) | std::abs(dz)) <= 1) continue;
+                    const int64_t g = std::gcd(std::gcd(std::abs(dx), std::abs(dy)), std::abs(dz));
+                    for (int64_t k = 1; k < g; ++k) {
+                        const Pt q{int32_t(a[0] + dx / g * k), int32_t(a[1] + dy / g * k), int32_t(a[2] + dz / g * k)};
+                        const uint32_t p = grid.index(q[0] - box.lo[0], q[1] - box.lo[1], q[2] - box.lo[2]);
+                        if (alive[p] && p != w) continue;  // a vertex: no deviation
+                        std::array<int64_t, 4> dd;
+                        if (!nb[j].locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
+                        account(p, int(j), dd);
+                    }
+                }
         for (size_t j = 0; j < ntv.size(); ++j) {
             const uint32_t t = newid[j];
             float e = mt::round_up_float(ne[j], nexact[j]);
