@@ -26,7 +26,7 @@ struct ConvertArgs {
     int level = 19;
     int brick_log2 = 4;
     int error_bits = 4;
-    double max_shape_ratio = 0;
+    double max_shape_ratio = kDefaultMtMaxShapeRatio;
     std::string model = "ht";
     std::string memory;  // empty: default_memory_budget()
     bool in_memory = false;
@@ -178,7 +178,7 @@ const CommandRegistration registration{Command{
             ->group(g);
         sub.add_option("--max-shape-ratio", a->max_shape_ratio,
                        "MT: refuse collapses creating tets whose circumradius / shortest edge exceeds R "
-                       "(fewer slivers, more tets); 0: no cap")
+                       "(no slivers, a few % more tets); 0: no cap")
             ->capture_default_str()
             ->check(CLI::NonNegativeNumber)
             ->group(g);

@@ -21,7 +21,7 @@ struct ExtractArgs {
     LodFlags lod;
     bool pad = false, no_compress = false;
     std::string compress = "zlib";
-    double max_shape_ratio = 0;
+    double max_shape_ratio = kDefaultMtMaxShapeRatio;
     int compress_level = 0;
     uint64_t cache_mb = 1024;
     VolumeFlags volume;
@@ -202,6 +202,7 @@ const CommandRegistration registration{Command{
         sub.add_option("--max-shape-ratio", a->max_shape_ratio,
                        "MT built from a volume: refuse collapses creating tets whose circumradius / shortest "
                        "edge exceeds R; 0: no cap")
+            ->capture_default_str()
             ->group(model)
             ->check(CLI::NonNegativeNumber);
         sub.add_option("--compress", a->compress,

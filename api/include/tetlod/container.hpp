@@ -27,6 +27,7 @@
 #include "tetlod/format/metadata.hpp"
 #include "tetlod/models/lod_model.hpp"
 #include "tetlod/models/lod_query.hpp"
+#include "tetlod/models/mt/mt_shape_cap.hpp"
 
 namespace tetlod {
 
@@ -39,8 +40,8 @@ struct ContainerWriteOptions {
     int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
     /// MT: refuse collapses whose new tets have a circumradius / shortest edge
-    /// ratio above this (no slivers, more tets); 0: no cap.
-    double mt_max_shape_ratio = 0;
+    /// ratio above this (no slivers, a few % more tets; mt_shape_cap.hpp); 0: no cap.
+    double mt_max_shape_ratio = kDefaultMtMaxShapeRatio;
     /// Provenance recorded in the metadata: the source file (name, size, XXH64,
     /// when `source_path` names a readable file), the converter and the time.
     std::string source_path;

@@ -14,6 +14,7 @@
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/volume.hpp"
 #include "tetlod/models/lod_model.hpp"
+#include "tetlod/models/mt/mt_shape_cap.hpp"
 
 namespace tetlod {
 
@@ -25,8 +26,8 @@ struct ModelBuildOptions {
     /// stored_bytes and, for the MT, extract its full mesh for tets_per_split.
     bool measure_storage = false;
     /// MT only: the largest circumradius / shortest edge ratio a collapse may
-    /// create (MtBuildOptions::max_shape_ratio); 0: no cap.
-    double mt_max_shape_ratio = 0;
+    /// create (MtBuildOptions::max_shape_ratio; mt_shape_cap.hpp); 0: no cap.
+    double mt_max_shape_ratio = kDefaultMtMaxShapeRatio;
 };
 
 /// Builds `kind` from `volume` (moved in). Throws tetlod::Error(InvalidArgument)

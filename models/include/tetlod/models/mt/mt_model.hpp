@@ -24,6 +24,7 @@
 #include <span>
 #include <vector>
 
+#include "tetlod/models/mt/mt_shape_cap.hpp"
 #include "tetlod/models/lod_query.hpp"
 #include "tetlod/core/tet_mesh.hpp"
 #include "tetlod/core/volume.hpp"
@@ -36,7 +37,8 @@ struct MtBuildOptions {
     double max_error = std::numeric_limits<double>::infinity();
     /// Refuse collapses whose new tets have a circumradius/shortest-edge ratio above
     /// this (physical coordinates). 0: no cap (quality is then only a tie-breaker).
-    double max_shape_ratio = 0.0;
+    /// The default keeps slivers out for a few % more tets (mt_shape_cap.hpp).
+    double max_shape_ratio = kDefaultMtMaxShapeRatio;
     /// Keep the explicit tet history (node-space tets removed/created per update),
     /// for the test oracle only: ~400 bytes per grid point.
     bool record_history = false;
