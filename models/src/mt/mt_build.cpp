@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "mt_build_progress.hpp"
 #include "mt_decimate.hpp"
 #include "tetlod/core/error.hpp"
 
@@ -72,7 +73,12 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    for (;;) {
+    std::vector<int64_t> sizes{size};  // the brick size of every pass, for the progress
+    while (std::any_of(cells.begin(), cells.end(), [&](int64_t c) { return c > sizes.back(); }))
+        sizes.push_back(sizes.back() * 2);
+    mt::BuildProgress progress(options.progress, cells, sizes);
+    progress.start();
+    for (int pass = 0;; ++pass) {
         std::array<int64_t, 3> count;
         for (int a = 0; a < 3; ++a) count[a] = (cells[a] + size - 1) / size;
         const size_t bricks = size_t(count[0] * count[1] * count[2]);
@@ -102,6 +108,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 }
                 results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
                 --in_flight;
+                progress.brick_done(pass, boxes[b]);
             });
         });
         prev.clear();
