@@ -22,6 +22,7 @@
 // the volume); buildB/pt is that peak minus the resident size just before the build,
 // per grid point (what the build itself takes); memB/pt is MtModel::memory_bytes()
 // per grid point; B/pt and B/pt+f the encoded MT without and with its field.
+#include <malloc.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -206,6 +207,7 @@ int main(int argc, char** argv) {
                 "buildB/pt", "memB/pt", "updates", "base_tets", "B/pt", "B/pt+f", "ins/sp");
     // One dataset: the build row, then (unless --build-only) the queries, then the peer.
     auto run = [&](const std::string& name, const Volume& v, const std::string& raw_path, bool with_vtk) {
+        ::malloc_trim(0);  // heap freed by the previous dataset back to the system: `before` is honest
         reset_peak();
         const double before = std::max(0.0, status_mb("VmRSS:"));  // libraries, the volume
         const double t0 = now();
