@@ -83,7 +83,7 @@ int run_convert(const ConvertArgs& a) {
     const Volume& header = planes ? planes->header() : *whole;
 
     const bool bar = show_progress();
-    std::optional<ProgressBar> encoding;
+    std::optional<ProgressBar> encoding, building;
     const double n = double(header.dims.count());
     const std::size_t value_bytes = value_size(header.type);
     ContainerWriteOptions wo;
@@ -99,8 +99,11 @@ int run_convert(const ConvertArgs& a) {
     wo.converter = "tetlod convert";
     wo.progress = [&](const std::string& stage, std::size_t done, std::size_t total) {
         if (stage == "build MT") {
-            if (bar) std::fprintf(stderr, "building the MT (edge collapses)...\r");
+            // Work units weighted by pass (MtBuildOptions::progress): shown as a percentage.
+            if (!building) building.emplace("building the MT", "%");
+            building->update(total ? done * 100 / total : 0, 100);
         } else if (stage == "built MT") {
+            building.reset();  // erases the bar
             detail("built the MT in " + format_seconds(sw.seconds()));
         } else if (stage == "build HT") {
             if (bar) std::fprintf(stderr, "building the HT (errors of every diamond)...\r");

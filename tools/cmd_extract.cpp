@@ -135,7 +135,13 @@ int run_extract(const ExtractArgs& a) {
     ModelBuildOptions build_options;
     build_options.pad = a.pad;
     build_options.mt_max_shape_ratio = a.max_shape_ratio;
+    std::optional<ProgressBar> building;  // MT: weighted work units, shown as a percentage
+    build_options.mt_progress = [&](uint64_t done, uint64_t total) {
+        if (!building) building.emplace("building the MT", "%");
+        building->update(total ? done * 100 / total : 0, 100);
+    };
     const LodModel model = build_model(mt ? ModelKind::Mt : ModelKind::Ht, std::move(volume), build_options);
+    building.reset();  // erases the bar
     const double build_seconds = model.build_seconds;
     const std::array<double, 2> range = model.range;
     query.error_in = error_in.resolve(range);

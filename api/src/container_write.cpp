@@ -124,9 +124,12 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     tlod::ContainerWriter w;
     std::optional<MtModel> mt;
     if (o.mt) {
-        progress("build MT", 0, 0);
         MtBuildOptions mo;
         mo.max_shape_ratio = o.mt_max_shape_ratio;
+        if (o.progress)
+            mo.progress = [&](uint64_t done, uint64_t total) {
+                o.progress("build MT", std::size_t(done), std::size_t(total));
+            };
         mt = MtModel::build(volume, mo);
         progress("built MT", 0, 0);
     }

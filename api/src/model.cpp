@@ -72,6 +72,7 @@ LodModel build_model(ModelKind kind, Volume volume, const ModelBuildOptions& opt
     }
     MtBuildOptions mo;
     mo.max_shape_ratio = options.mt_max_shape_ratio;
+    mo.progress = options.mt_progress;
     auto mt = std::make_shared<const MtModel>(MtModel::build(std::move(volume), mo));
     LodModel m = make_lod_model(mt);
     m.build_seconds = clock.seconds();

@@ -54,9 +54,11 @@ struct ContainerWriteOptions {
     /// Out-of-core writing (the VolumePlanes overload): the memory the HT
     /// encoder plans for, in bytes; 0: default_memory_budget().
     std::size_t memory_bytes = 0;
-    /// Called as (stage, done, total) while building and encoding: "build MT",
-    /// "built MT", "build HT", "built HT", "encoded HT" (done = total = 0), and
-    /// "encode HT" after each chunk (done of total chunks).
+    /// Called as (stage, done, total) while building and encoding: "build MT"
+    /// as the MT's bricks complete (done of total work units, first 0, last
+    /// done == total; see MtBuildOptions::progress: from TBB worker threads, one
+    /// call at a time), "built MT", "build HT", "built HT", "encoded HT"
+    /// (done = total = 0), and "encode HT" after each chunk (done of total chunks).
     std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
 };
 

@@ -7,6 +7,8 @@
 // hostile file gives an Error naming the file, never a crash or unbounded
 // allocation. build_model works on trusted in-memory data (a Volume whose
 // data size matches dims x type).
+#include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -28,6 +30,9 @@ struct ModelBuildOptions {
     /// MT only: the largest circumradius / shortest edge ratio a collapse may
     /// create (MtBuildOptions::max_shape_ratio; mt_shape_cap.hpp); 0: no cap.
     double mt_max_shape_ratio = kDefaultMtMaxShapeRatio;
+    /// MT only: progress of the build (MtBuildOptions::progress: (done, total)
+    /// from TBB worker threads, one call at a time). The HT build does not report.
+    std::function<void(uint64_t done, uint64_t total)> mt_progress = {};
 };
 
 /// Builds `kind` from `volume` (moved in). Throws tetlod::Error(InvalidArgument)

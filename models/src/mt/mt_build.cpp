@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "mt_build_progress.hpp"
 #include "mt_decimate.hpp"
 #include "tetlod/core/error.hpp"
 
@@ -68,26 +69,31 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     // Brick faces per axis, pass 0: as few bricks as keep every one within brick_cells,
     // of even sizes (a remainder brick of a few cells would leave its neighbour alone
     // in a pass: 67 cells are 3 x 22-23, not 32 + 32 + 3). Each later pass keeps every
-    // other face, so its bricks are unions of 2 x 2 x 2 children.
-    std::array<std::vector<int64_t>, 3> faces;
+    // other face, so its bricks are unions of 2 x 2 x 2 children; the last is one brick.
+    std::vector<mt::PassFaces> passes(1);
     for (int a = 0; a < 3; ++a) {
         const int64_t count =
             options.brick_cells == 0 ? 1 : std::max<int64_t>(1, (cells[a] + options.brick_cells - 1) / options.brick_cells);
-        for (int64_t i = 0; i <= count; ++i) faces[a].push_back(i * cells[a] / count);
+        for (int64_t i = 0; i <= count; ++i) passes[0][a].push_back(i * cells[a] / count);
+    }
+    while (std::any_of(passes.back().begin(), passes.back().end(), [](const auto& f) { return f.size() > 2; })) {
+        mt::PassFaces next;
+        for (int a = 0; a < 3; ++a) {
+            const auto& f = passes.back()[a];
+            for (size_t i = 0; i < f.size(); i += 2) next[a].push_back(f[i]);
+            if (next[a].back() != f.back()) next[a].push_back(f.back());
+        }
+        passes.push_back(std::move(next));
     }
     std::array<int64_t, 3> prev_count{0, 0, 0};
     std::vector<mt::BrickMesh> prev;
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    for (bool first_pass = true;; first_pass = false) {
-        if (!first_pass)
-            for (auto& f : faces) {
-                std::vector<int64_t> kept;
-                for (size_t i = 0; i < f.size(); i += 2) kept.push_back(f[i]);
-                if (kept.back() != f.back()) kept.push_back(f.back());
-                f = std::move(kept);
-            }
+    mt::BuildProgress progress(options.progress, cells, passes);
+    progress.start();
+    for (int pass = 0; pass < int(passes.size()); ++pass) {
+        const mt::PassFaces& faces = passes[size_t(pass)];
         std::array<int64_t, 3> count;
         for (int a = 0; a < 3; ++a) count[a] = int64_t(faces[a].size()) - 1;
         const size_t bricks = size_t(count[0] * count[1] * count[2]);
@@ -119,6 +125,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 }
                 results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
                 --in_flight;
+                progress.brick_done(pass, boxes[b]);
             });
         });
         prev.clear();
@@ -155,7 +162,6 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size());
         prev_count = count;
-        if (bricks == 1) break;
     }
     m.base_ = std::move(prev.front().tets);
     if (options.record_history)

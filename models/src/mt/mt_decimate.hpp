@@ -19,6 +19,10 @@ struct BrickBox {
     std::array<int64_t, 3> lo{0, 0, 0}, hi{0, 0, 0};
 };
 
+/// The brick faces of one pass, per axis: increasing cell coordinates from 0 to the
+/// cells of the axis; brick i of an axis spans faces[i]..faces[i + 1].
+using PassFaces = std::array<std::vector<int64_t>, 3>;
+
 /// The decimated mesh a brick hands to the next pass: its tets in whole-grid indices
 /// with their closed errors and face errors, and the removed grid points each tet
 /// owns (CSR). Orders are deterministic.

@@ -92,4 +92,18 @@ void MtModel::finalize() {
     range_ = field_.range();
 }
 
+std::size_t MtModel::memory_bytes() const {
+    auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+    std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) +
+                    bytes(csr_start_) + bytes(csr_items_) + bytes(removed_by_) + bytes(history_);
+    for (const MtHistory& h : history_) {
+        for (const auto* lists : {&h.before, &h.after}) {
+            r += bytes(*lists);
+            for (const auto& tets : *lists) r += bytes(tets);
+        }
+        r += bytes(h.base) + bytes(h.update_of_node);
+    }
+    return r;
+}
+
 }  // namespace tetlod

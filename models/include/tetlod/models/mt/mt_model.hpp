@@ -20,6 +20,7 @@
 // bound holds at every grid point.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <span>
 #include <vector>
@@ -48,6 +49,13 @@ struct MtBuildOptions {
     /// "Bricks"); each further pass doubles it. 0: one brick, the whole volume. The
     /// model depends on it (not on `threads`).
     int brick_cells = 32;
+    /// Called as (done, total) while building: first (0, total), then as each brick
+    /// completes, last with done == total. Units: grid points as they become free to
+    /// collapse, weighted by 3^pass (a collapse costs about three times more per pass;
+    /// docs/mt.md §2), so done / total follows the time. Called from TBB worker
+    /// threads, one call at a time (serialized), with done never decreasing; keep it
+    /// cheap. Empty: no reports. The model does not depend on it.
+    std::function<void(uint64_t done, uint64_t total)> progress;
 };
 
 /// One vertex split (the inverse of collapse w -> s), in node space.
@@ -116,6 +124,10 @@ public:
     TetMesh extract(const LodQuery& query, MtExtractStats* stats = nullptr) const;
 
     std::array<double, 2> value_range() const { return range_; }
+
+    /// Bytes the model holds in memory: the capacities of all its arrays (field,
+    /// base mesh, updates, masks, per-point update lists, history) and the object.
+    std::size_t memory_bytes() const;
 
     /// Per survivor grid point, its updates sorted by label (CSR): rebuilt on load.
     std::span<const uint32_t> updates_at(uint32_t p) const {
