@@ -133,10 +133,10 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const 
 /// query's region test (tet_box_intersection.hpp).
 using tetlod::geometry::tet_meets_box;
 
-/// Circumradius / shortest edge in physical coordinates (regular tet: sqrt(6)/4).
-/// The square of shape_ratio() below, from physical coordinates: one division and no
-/// square root, for ranking many candidate tets (the order of squares is the order of
-/// ratios). The tet must be positively oriented (den > 0).
+/// The square of a tet's circumradius / shortest edge ratio, from physical coordinates:
+/// one division and no square root, for ranking many candidate tets (the order of
+/// squares is the order of ratios; regular tet: 6/16). The tet must be positively
+/// oriented (den > 0).
 inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::array<double, 3>& p1,
                                   const std::array<double, 3>& p2, const std::array<double, 3>& p3) {
     auto sub = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
@@ -160,32 +160,6 @@ inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::ar
     return dot(o, o) / (den * den * shortest);
 }
 
-inline double shape_ratio(const std::array<Pt, 4>& t, const Vec3& sp) {
-    std::array<std::array<double, 3>, 4> p;
-    for (int i = 0; i < 4; ++i)
-        for (int a = 0; a < 3; ++a) p[i][a] = t[i][a] * sp[a];
-    auto sub = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return std::array<double, 3>{u[0] - v[0], u[1] - v[1], u[2] - v[2]};
-    };
-    auto dot = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    };
-    auto cross = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return std::array<double, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                                     u[0] * v[1] - u[1] * v[0]};
-    };
-    const auto a = sub(p[1], p[0]), b = sub(p[2], p[0]), c = sub(p[3], p[0]);
-    const auto bc = cross(b, c), ca = cross(c, a), ab = cross(a, b);
-    const double den = 2.0 * dot(a, bc);
-    const double la = dot(a, a), lb = dot(b, b), lc = dot(c, c);
-    std::array<double, 3> o;
-    for (int k = 0; k < 3; ++k) o[k] = (la * bc[k] + lb * ca[k] + lc * ab[k]) / den;
-    const double R = std::sqrt(dot(o, o));
-    double shortest = std::min({la, lb, lc});
-    shortest = std::min({shortest, dot(sub(p[2], p[1]), sub(p[2], p[1])),
-                         dot(sub(p[3], p[1]), sub(p[3], p[1])), dot(sub(p[3], p[2]), sub(p[3], p[2]))});
-    return R / std::sqrt(shortest);
-}
 
 /// Canonical order of the star of node s for its split towards w (spec/mt-model.md §M5):
 /// first by -(sum of the tet's corners - 4 s).(w - s) (tets leaning towards w come
