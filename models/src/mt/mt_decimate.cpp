@@ -373,22 +373,17 @@ struct BrickDecimator {
 
     // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
     // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
-    bool make_new_tets(uint32_t w, uint32_t s, bool bary = true) {
+    bool make_new_tets(uint32_t w, uint32_t s) {
         ntv.clear(), nb.clear();
         old2new.assign(star_w.size(), -1);
         for (size_t i = 0; i < star_w.size(); ++i) {
             auto t = tets[star_w[i]].v;
             if (slot_of(t, s) >= 0) continue;
             t[slot_of(t, w)] = s;
-            const auto p = pts_of(t);
-            if (!bary) {
-                if (mt::orient(p[0], p[1], p[2], p[3]) <= 0) return false;
-            } else {
-                Bary b;
-                b.set(p);
-                if (b.det <= 0) return false;
-                nb.push_back(b);
-            }
+            Bary b;
+            b.set(pts_of(t));
+            if (b.det <= 0) return false;
+            nb.push_back(b);
             old2new[i] = int(ntv.size());
             ntv.push_back(t);
         }
