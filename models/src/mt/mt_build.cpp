@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <malloc.h>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -40,6 +41,17 @@ void append_bits(std::vector<uint64_t>& dst, uint64_t at, const std::vector<uint
     }
 }
 
+/// Hands the heap's free pages back to the system. A brick's arrays are freed in the
+/// arena of the thread that ran it, and glibc keeps such memory for that arena's later
+/// use: with bricks of growing size on several threads the resident size then climbs to
+/// the sum of every arena's largest brick (bucky 128^3: 410 MB resident for 266 MB ever
+/// in use at once). Trimming after each brick keeps the resident size near the live data.
+void release_free_heap() {
+#if defined(__GLIBC__)
+    ::malloc_trim(0);
+#endif
+}
+
 }  // namespace
 
 MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
@@ -59,6 +71,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         throw Error(ErrorCode::TooLarge, "MT: history recording is for small volumes");
     if (options.record_history) m.history_.emplace_back();
 
+    // At most one update per grid point: reserving them spares the copy of a doubling.
+    m.updates_.reserve(n);
     mt::NodeState nodes;
     nodes.node.resize(n);
     for (uint32_t i = 0; i < n; ++i) nodes.node[i] = i;
@@ -99,7 +113,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         const size_t bricks = size_t(count[0] * count[1] * count[2]);
         int64_t largest_brick = 0;
         std::vector<mt::BrickBox> boxes(bricks);
-        std::vector<std::vector<const mt::BrickMesh*>> inputs(bricks);
+        std::vector<std::vector<mt::BrickMesh*>> inputs(bricks);
         for (size_t b = 0; b < bricks; ++b) {
             const std::array<int64_t, 3> at{int64_t(b) % count[0], int64_t(b) / count[0] % count[1],
                                             int64_t(b) / (count[0] * count[1])};
@@ -125,6 +139,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 }
                 results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
                 --in_flight;
+                release_free_heap();
                 progress.brick_done(pass, boxes[b]);
             });
         });
@@ -155,6 +170,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 for (uint32_t k : r.history.update_of_node) h.update_of_node.push_back(first + k);
             }
             prev.push_back(std::move(r.mesh));
+            r = mt::BrickResult{};  // merged: its updates and masks need not wait for the others
         }
         if (stats)
             std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",

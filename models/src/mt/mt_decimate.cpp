@@ -70,13 +70,16 @@ struct BrickDecimator {
     struct alignas(32) PointRec {
         Pt c{0, 0, 0};          // whole-grid coordinates
         uint32_t next = kNil;   // owned point list link
-        int64_t ival = 0;       // the value, integer data
+        union {                 // the value: one slot for either kind, no second array
+            int64_t ival = 0;   // integer data
+            double fval;        // floating-point data
+        };
         uint32_t mark = 0;      // == mark_epoch: already collected by evaluate
         uint8_t planes = 0;     // planes of the volume's box the point lies on
         uint8_t frozen = 0;     // on a face of the brick inside the volume
+        uint8_t alive = 0;      // a vertex of the brick's mesh (not removed)
     };
     HugePageVector<PointRec> point;
-    std::vector<double> val;
 
     // Tets.
     // Tets: one cache line each, so that walking a star costs one miss per tet.
@@ -94,11 +97,8 @@ struct BrickDecimator {
     // Vertices / grid points.
     std::vector<uint32_t> vhead;  // first corner
     std::vector<uint32_t> stamp, live_seq;
-    std::vector<uint8_t> alive;
-    std::vector<uint32_t> cur_node, cur_label;
-    std::vector<float> cur_err;
 
-    const std::vector<const BrickMesh*>& input;
+    const std::vector<BrickMesh*>& input;
     NodeState& nodes;
     BrickResult& out;
     uint32_t seq_counter = 0;
@@ -124,7 +124,7 @@ struct BrickDecimator {
         return {b.hi[0] - b.lo[0] + 1, b.hi[1] - b.lo[1] + 1, b.hi[2] - b.lo[2] + 1};
     }
     BrickDecimator(const Volume& v, const MtBuildOptions& o, const BrickBox& b,
-                   const std::vector<const BrickMesh*>& in, NodeState& nd, BrickResult& r)
+                   const std::vector<BrickMesh*>& in, NodeState& nd, BrickResult& r)
         : vol(v), opt(o), box(b), grid(box_dims(b)), whole(v.dims),
           n(uint32_t(grid.X * grid.Y * grid.Z)), input(in), nodes(nd), out(r) {}
     uint32_t global(uint32_t i) const { return whole.index(point[i].c[0], point[i].c[1], point[i].c[2]); }
@@ -188,9 +188,9 @@ struct BrickDecimator {
             return double(num) / double(det);
         }
         double l = 0;
-        for (int i = 0; i < 4; ++i) l += val[t[i]] * double(d[i]);
+        for (int i = 0; i < 4; ++i) l += point[t[i]].fval * double(d[i]);
         exact = false;
-        return std::fabs(val[p] - l / double(det));
+        return std::fabs(point[p].fval - l / double(det));
     }
 
     // ---- setup ---------------------------------------------------------------
@@ -199,10 +199,6 @@ struct BrickDecimator {
         small_int = vol.type == ValueType::U8 || vol.type == ValueType::I8 || vol.type == ValueType::U16 ||
                     vol.type == ValueType::I16;
         point.assign(n, PointRec{});
-        val.resize(n);
-        cur_node.resize(n);
-        cur_label.resize(n);
-        cur_err.resize(n);
         const Pt lo{int32_t(box.lo[0]), int32_t(box.lo[1]), int32_t(box.lo[2])};
         for (uint32_t i = 0; i < n; ++i) {
             const Pt c = grid.coord(i);
@@ -215,11 +211,8 @@ struct BrickDecimator {
             }
             point[i].frozen = f;
             const uint32_t g = global(i);
-            val[i] = vol.value(g);
-            if (int_data) point[i].ival = int64_t(val[i]);
-            cur_node[i] = nodes.node[g];
-            cur_label[i] = nodes.label[g];
-            cur_err[i] = nodes.err[g];
+            if (int_data) point[i].ival = int64_t(vol.value(g));
+            else point[i].fval = vol.value(g);
         }
         {
             size_t count = input.empty() ? size_t(5) * size_t(grid.X - 1) * size_t(grid.Y - 1) * size_t(grid.Z - 1) : 0;
@@ -228,13 +221,12 @@ struct BrickDecimator {
         }
         if (input.empty()) {
             for (const auto& t : mt::reference_tets(grid, lo)) tets.push_back(TetRec{t});
-            alive.assign(n, 1);
+            for (uint32_t i = 0; i < n; ++i) point[i].alive = 1;
         } else {
-            alive.assign(n, 0);
             for (const BrickMesh* b : input)
                 for (size_t t = 0; t < b->tets.size(); ++t) {
                     std::array<uint32_t, 4> lt;
-                    for (int i = 0; i < 4; ++i) alive[lt[i] = local(b->tets[t][i])] = 1;
+                    for (int i = 0; i < 4; ++i) point[lt[i] = local(b->tets[t][i])].alive = 1;
                     TetRec rec{lt};
                     rec.err = b->err[t];
                     rec.ferr = b->face_err[t];
@@ -249,6 +241,9 @@ struct BrickDecimator {
                     rec.head = head;
                     tets.push_back(rec);
                 }
+            // The children's meshes now live in `tets`: free them before the brick's own
+            // arrays grow, so a pass never holds a mesh twice.
+            for (BrickMesh* b : input) *b = BrickMesh{};
         }
         const size_t m = tets.size();
         prev_corner.assign(4 * m, kNil);
@@ -545,7 +540,7 @@ struct BrickDecimator {
     std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> mask_keys;
 
     MtHistory::Tet node_tet(const std::array<uint32_t, 4>& t) const {
-        return {cur_node[t[0]], cur_node[t[1]], cur_node[t[2]], cur_node[t[3]]};
+        return {nodes.node[global(t[0])], nodes.node[global(t[1])], nodes.node[global(t[2])], nodes.node[global(t[3])]};
     }
 
     void commit(uint32_t w, uint32_t s) {
@@ -649,7 +644,7 @@ struct BrickDecimator {
                     for (int64_t k = 1; k < g; ++k) {
                         const Pt q{int32_t(a[0] + dx / g * k), int32_t(a[1] + dy / g * k), int32_t(a[2] + dz / g * k)};
                         const uint32_t p = grid.index(q[0] - box.lo[0], q[1] - box.lo[1], q[2] - box.lo[2]);
-                        if (alive[p] && p != w) continue;  // a vertex: no deviation
+                        if (point[p].alive && p != w) continue;  // a vertex: no deviation
                         std::array<int64_t, 4> dd;
                         if (!nb[j].locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
                         account(p, int(j), dd);
@@ -664,8 +659,9 @@ struct BrickDecimator {
         }
         // The new node at s.
         const uint32_t k = uint32_t(out.updates.size());
-        uint32_t label = std::max(cur_label[s], cur_label[w]);
-        float err = std::max(cur_err[s], cur_err[w]);
+        const uint32_t gs = global(s), gw = global(w);
+        uint32_t label = std::max(nodes.label[gs], nodes.label[gw]);
+        float err = std::max(nodes.err[gs], nodes.err[gw]);
         gather_star(s, star_s_scratch);
         link.clear();
         for (uint32_t t : star_s_scratch) {
@@ -675,14 +671,14 @@ struct BrickDecimator {
         }
         std::sort(link.begin(), link.end());
         link.erase(std::unique(link.begin(), link.end()), link.end());
-        for (uint32_t u : link) label = std::max(label, cur_label[u]);
+        for (uint32_t u : link) label = std::max(label, nodes.label[global(u)]);
         label += 1;
         // Split mask over the canonically ordered star.
         mt::star_order(star_s_scratch, s, point[s].c, point[w].c, grid,
                        [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tets[t].v; }, mask_perm,
                        mask_keys);
         MtUpdate u;
-        u.w = global(w), u.s = global(s), u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
+        u.w = gw, u.s = gs, u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
         u.mask_offset = mask_bit_count;
         for (uint32_t r = 0; r < mask_perm.size(); ++r) {
             const uint32_t t = star_s_scratch[mask_perm[r]];
@@ -692,10 +688,12 @@ struct BrickDecimator {
             if (wside) out.mask_bits[b >> 6] |= uint64_t(1) << (b & 63);
         }
         out.updates.push_back(u);
-        cur_node[s] = kProvisional + k;
-        cur_label[s] = label;
-        cur_err[s] = err;
-        alive[w] = 0;
+        // Straight into the whole volume's state: s is free, so no other brick of this
+        // pass reads or writes its entry (mt_decimate.hpp).
+        nodes.node[gs] = kProvisional + k;
+        nodes.label[gs] = label;
+        nodes.err[gs] = err;
+        point[w].alive = 0;
         ++stamp[w];
         live_seq[w] = 0;
         if (hist) {
@@ -716,11 +714,11 @@ struct BrickDecimator {
     void run() {
         init();
         for (uint32_t v = 0; v < n; ++v)
-            if (alive[v] && !point[v].frozen) push_dirty(v, 0.0);
+            if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0);
         while (!heap.empty()) {
             const Entry e = heap.top();
             heap.pop();
-            if (e.seq != live_seq[e.w] || !alive[e.w]) continue;
+            if (e.seq != live_seq[e.w] || !point[e.w].alive) continue;
             live_seq[e.w] = 0;
             current_cost = std::max(current_cost, std::min(e.cost, opt.max_error));
             const bool fresh = !e.dirty && e.stamp == stamp[e.w];
@@ -741,10 +739,23 @@ struct BrickDecimator {
         }
         out.evaluations = n_eval;
         out.relocated_points = n_pts;
-        // The decimated mesh, in slot order, and the node state of the free points.
+        // The decimated mesh, in slot order (the node state is already in `nodes`).
         std::vector<uint8_t> dead(tets.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;
         BrickMesh& mesh = out.mesh;
+        {  // exact sizes: the brick's arrays are still alive, so no growth slack on top
+            size_t live = 0, owned = 0;
+            for (uint32_t t = 0; t < tets.size(); ++t) {
+                if (dead[t]) continue;
+                ++live;
+                for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) ++owned;
+            }
+            mesh.tets.reserve(live);
+            mesh.err.reserve(live);
+            mesh.face_err.reserve(live);
+            mesh.point_start.reserve(live + 1);
+            mesh.points.reserve(owned);
+        }
         mesh.point_start.push_back(0);
         for (uint32_t t = 0; t < tets.size(); ++t) {
             if (dead[t]) continue;
@@ -754,20 +765,13 @@ struct BrickDecimator {
             for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) mesh.points.push_back(global(p));
             mesh.point_start.push_back(uint32_t(mesh.points.size()));
         }
-        for (uint32_t i = 0; i < n; ++i) {
-            if (point[i].frozen) continue;
-            const uint32_t g = global(i);
-            nodes.node[g] = cur_node[i];
-            nodes.label[g] = cur_label[i];
-            nodes.err[g] = cur_err[i];
-        }
     }
 };
 
 }  // namespace
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
-                           const std::vector<const BrickMesh*>& input, NodeState& nodes) {
+                           const std::vector<BrickMesh*>& input, NodeState& nodes) {
     BrickResult r;
     BrickDecimator d(vol, opt, box, input, nodes, r);
     d.run();

@@ -35,8 +35,8 @@ struct BrickMesh {
 };
 
 /// Node state of every grid point of the whole volume. A brick reads it for its box and
-/// writes it back for its free points only, so bricks of one pass never write the
-/// same entry. Node ids of nodes a brick creates are provisional
+/// writes it for its free points only (in place, as it collapses: no copy per brick), so
+/// bricks of one pass never write an entry another one reads or writes. Node ids of nodes a brick creates are provisional
 /// (kProvisional + collapse index in the brick) until the merge renumbers them.
 struct NodeState {
     std::vector<uint32_t> node, label;
@@ -54,9 +54,9 @@ struct BrickResult {
 };
 
 /// Decimates the brick. `input`: the tets of the brick (the child bricks' meshes,
-/// concatenated in a fixed order); empty: start from the reference mesh of the box.
-/// Deterministic: the result depends only on the arguments.
+/// concatenated in a fixed order), emptied once read; empty: start from the reference
+/// mesh of the box. Deterministic: the result depends only on the arguments.
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
-                           const std::vector<const BrickMesh*>& input, NodeState& nodes);
+                           const std::vector<BrickMesh*>& input, NodeState& nodes);
 
 }  // namespace tetlod::mt

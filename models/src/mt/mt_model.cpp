@@ -45,7 +45,7 @@ void MtModel::finalize() {
             corrupt("base tet not positively oriented");
         for (uint32_t v : t) is_base[v] = 1;
     }
-    removed_by_.assign(n, mt::kNil);
+    std::vector<uint32_t> removed_by(n, mt::kNil);  // per grid point: the update inserting it
     std::vector<uint32_t> count(n + 1, 0);
     const uint64_t total_bits = uint64_t(mask_bits_.size()) * 64;
     max_label_ = 0;
@@ -56,14 +56,14 @@ void MtModel::finalize() {
         if (!(u.error >= 0.0f)) corrupt("negative or NaN error");
         if (u.star < 1 || u.star > base_.size() + 5 * n) corrupt("star size out of range");
         if (u.mask_offset > total_bits || u.star > total_bits - u.mask_offset) corrupt("mask out of range");
-        if (removed_by_[u.w] != mt::kNil) corrupt("grid point inserted twice");
+        if (removed_by[u.w] != mt::kNil) corrupt("grid point inserted twice");
         if (is_base[u.w]) corrupt("base vertex inserted by an update");
-        removed_by_[u.w] = uint32_t(k);
+        removed_by[u.w] = uint32_t(k);
         ++count[u.s];
         max_label_ = std::max(max_label_, u.label);
     }
     uint64_t covered = 0;
-    for (uint64_t p = 0; p < n; ++p) covered += (is_base[p] || removed_by_[p] != mt::kNil) ? 1 : 0;
+    for (uint64_t p = 0; p < n; ++p) covered += (is_base[p] || removed_by[p] != mt::kNil) ? 1 : 0;
     if (covered != n) corrupt("some grid points are neither base vertices nor inserted");
     csr_start_.assign(n + 1, 0);
     for (uint64_t p = 0; p < n; ++p) csr_start_[p + 1] = csr_start_[p] + count[p];
@@ -95,7 +95,7 @@ void MtModel::finalize() {
 std::size_t MtModel::memory_bytes() const {
     auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
     std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) +
-                    bytes(csr_start_) + bytes(csr_items_) + bytes(removed_by_) + bytes(history_);
+                    bytes(csr_start_) + bytes(csr_items_) + bytes(history_);
     for (const MtHistory& h : history_) {
         for (const auto* lists : {&h.before, &h.after}) {
             r += bytes(*lists);

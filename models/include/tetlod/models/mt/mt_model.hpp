@@ -142,7 +142,6 @@ private:
     std::vector<MtUpdate> updates_;
     std::vector<uint64_t> mask_bits_;
     std::vector<uint32_t> csr_start_, csr_items_;
-    std::vector<uint32_t> removed_by_;  // per grid point: update index that inserts it, or ~0
     uint32_t max_label_ = 0;
     std::array<double, 2> range_{0, 0};
     std::vector<MtHistory> history_;  // 0 or 1 element
