@@ -60,14 +60,15 @@ struct Reader {
 };
 
 /// Cut c minimising exceptions: ones expected in [0, c), zeros in [c, d).
-void encode_mask(const MtModel& m, const MtUpdate& u, std::vector<uint8_t>& o) {
-    const uint32_t d = u.star;
+void encode_mask(const MtModel& m, size_t k, std::vector<uint8_t>& o) {
+    const uint32_t d = m.updates()[k].star;
+    const uint64_t at = m.mask_offset(k);
     uint32_t best_c = 0, ones_total = 0;
-    for (uint32_t i = 0; i < d; ++i) ones_total += m.mask_bit(u, i);
+    for (uint32_t i = 0; i < d; ++i) ones_total += m.mask_bit(at + i);
     // exceptions(c) = zeros in [0,c) + ones in [c,d)
     uint32_t zeros_before = 0, ones_before = 0, best_exc = ones_total;
     for (uint32_t c = 1; c <= d; ++c) {
-        if (m.mask_bit(u, c - 1)) ++ones_before;
+        if (m.mask_bit(at + c - 1)) ++ones_before;
         else ++zeros_before;
         const uint32_t exc = zeros_before + (ones_total - ones_before);
         if (exc < best_exc) best_exc = exc, best_c = c;
@@ -77,7 +78,7 @@ void encode_mask(const MtModel& m, const MtUpdate& u, std::vector<uint8_t>& o) {
     uint32_t prev = 0;
     for (uint32_t i = 0; i < d; ++i) {
         const bool expect = i < best_c;
-        if (bool(m.mask_bit(u, i)) != expect) put_varint(o, i - prev), prev = i;
+        if (m.mask_bit(at + i) != expect) put_varint(o, i - prev), prev = i;
     }
 }
 
@@ -100,7 +101,7 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
         put_varint(s[2], u.label);
         put_le(s[3], quantize_error(u.error, mb), 2);
         put_varint(s[4], u.star);
-        encode_mask(m, u, s[5]);
+        encode_mask(m, by_w[w], s[5]);
     }
     if (opt.include_field) {
         const auto* b = reinterpret_cast<const uint8_t*>(m.field().data.data());
@@ -223,7 +224,6 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
         const uint64_t d = st[4].varint();
         if (!st[4].ok || d == 0 || d > 8 * n) return fail(ErrorCode::CorruptData, "MT: bad star size");
         u.star = uint32_t(d);
-        u.mask_offset = nbits;
         // A valid model's stars sum to ~25 n; refuse pools beyond 64 n bits (8 n bytes).
         if (nbits + d > 64 * n + 4096) return fail(ErrorCode::TooLarge, "MT: masks too large");
         const uint64_t cut = st[5].varint(), exc = st[5].varint();

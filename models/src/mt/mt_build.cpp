@@ -148,10 +148,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         for (size_t b = 0; b < bricks; ++b) {
             mt::BrickResult& r = results[b];
             const uint32_t first = uint32_t(m.updates_.size());
-            for (MtUpdate u : r.updates) {
-                u.mask_offset += mask_bits;
-                m.updates_.push_back(u);
-            }
+            m.updates_.insert(m.updates_.end(), r.updates.begin(), r.updates.end());
             append_bits(m.mask_bits_, mask_bits, r.mask_bits, r.mask_bit_count);
             mask_bits += r.mask_bit_count;
             evaluations += r.evaluations, relocated += r.relocated_points;

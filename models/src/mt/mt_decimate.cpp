@@ -679,7 +679,6 @@ struct BrickDecimator {
                        mask_keys);
         MtUpdate u;
         u.w = gw, u.s = gs, u.label = label, u.error = err, u.star = uint32_t(star_s_scratch.size());
-        u.mask_offset = mask_bit_count;
         for (uint32_t r = 0; r < mask_perm.size(); ++r) {
             const uint32_t t = star_s_scratch[mask_perm[r]];
             const bool wside = std::find(newid.begin(), newid.end(), t) != newid.end();

@@ -45,7 +45,7 @@ struct NodeState {
 inline constexpr uint32_t kProvisional = 0x80000000u;
 
 struct BrickResult {
-    std::vector<MtUpdate> updates;  // w, s whole-grid; mask_offset local to `mask_bits`
+    std::vector<MtUpdate> updates;  // w, s whole-grid; their masks follow each other in `mask_bits`
     std::vector<uint64_t> mask_bits;
     uint64_t mask_bit_count = 0;
     MtHistory history;  // only with record_history; provisional node ids

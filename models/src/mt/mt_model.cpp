@@ -48,6 +48,9 @@ void MtModel::finalize() {
     std::vector<uint32_t> removed_by(n, mt::kNil);  // per grid point: the update inserting it
     std::vector<uint32_t> count(n + 1, 0);
     const uint64_t total_bits = uint64_t(mask_bits_.size()) * 64;
+    uint64_t mask_end = 0;  // masks follow each other in the order of the updates
+    mask_start_.clear();
+    mask_start_.reserve(updates_.size() / 64 + 1);
     max_label_ = 0;
     for (size_t k = 0; k < updates_.size(); ++k) {
         const MtUpdate& u = updates_[k];
@@ -55,7 +58,9 @@ void MtModel::finalize() {
         if (u.label == 0) corrupt("update label 0");
         if (!(u.error >= 0.0f)) corrupt("negative or NaN error");
         if (u.star < 1 || u.star > base_.size() + 5 * n) corrupt("star size out of range");
-        if (u.mask_offset > total_bits || u.star > total_bits - u.mask_offset) corrupt("mask out of range");
+        if ((k & 63) == 0) mask_start_.push_back(mask_end);
+        if (u.star > total_bits - mask_end) corrupt("masks beyond the mask bits");
+        mask_end += u.star;
         if (removed_by[u.w] != mt::kNil) corrupt("grid point inserted twice");
         if (is_base[u.w]) corrupt("base vertex inserted by an update");
         removed_by[u.w] = uint32_t(k);
@@ -94,7 +99,7 @@ void MtModel::finalize() {
 
 std::size_t MtModel::memory_bytes() const {
     auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-    std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) +
+    std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) + bytes(mask_start_) +
                     bytes(csr_start_) + bytes(csr_items_) + bytes(history_);
     for (const MtHistory& h : history_) {
         for (const auto* lists : {&h.before, &h.after}) {

@@ -126,7 +126,8 @@ struct MtRefiner {
         mt::star_order(star, s, ps, pw, grid, [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; },
                        perm, keys);
         std::vector<uint8_t> side(star.size());
-        for (uint32_t r = 0; r < perm.size(); ++r) side[perm[r]] = m.mask_bit(u, r) ? 1 : 0;
+        const uint64_t mask = m.mask_offset(k);
+        for (uint32_t r = 0; r < perm.size(); ++r) side[perm[r]] = m.mask_bit(mask + r) ? 1 : 0;
         faces.clear();
         for (size_t i = 0; i < star.size(); ++i) {
             std::array<uint32_t, 3> o{};

@@ -58,14 +58,16 @@ struct MtBuildOptions {
     std::function<void(uint64_t done, uint64_t total)> progress;
 };
 
-/// One vertex split (the inverse of collapse w -> s), in node space.
+/// One vertex split (the inverse of collapse w -> s), in node space. Its mask (one bit
+/// per tet of the star) is not here: masks are concatenated in the order of the
+/// updates, so the offset follows from the stars before it (MtModel::mask_offset),
+/// which keeps an update at 20 bytes.
 struct MtUpdate {
     uint32_t w = 0;         // grid index of the point the split inserts
     uint32_t s = 0;         // grid index of the survivor (the split node sits here)
     uint32_t label = 0;     // node label, >= 1 (leaves are 0)
     float error = 0.0f;     // conservative error bound of the node's creation star
     uint32_t star = 0;      // tets around the node at creation (= bits of its mask)
-    uint64_t mask_offset = 0;  // first bit of its mask in MtModel::mask_bits()
 };
 
 /// Explicit node-space history (tests only). Node ids: grid index for leaves,
@@ -93,7 +95,8 @@ public:
     static MtModel build(Volume volume, const MtBuildOptions& options = {});
 
     /// Reassembles a model from stored parts (decoders). `base_tets` hold grid indices;
-    /// `updates` in any order whose labels increase along every survivor's list.
+    /// `updates` in any order whose labels increase along every survivor's list;
+    /// `mask_bits` their masks concatenated in that order.
     /// Checks indices, counts, labels and masks structurally and throws
     /// tetlod::Error(CorruptData) when they are inconsistent; deeper inconsistencies
     /// are caught during extraction (which then throws CorruptData, never crashes).
@@ -107,10 +110,15 @@ public:
     /// Updates in creation (collapse) order after build; in decode order otherwise.
     const std::vector<MtUpdate>& updates() const { return updates_; }
     const std::vector<uint64_t>& mask_bits() const { return mask_bits_; }
-    bool mask_bit(const MtUpdate& u, uint32_t i) const {
-        const uint64_t b = u.mask_offset + i;
-        return (mask_bits_[b >> 6] >> (b & 63)) & 1u;
+    /// First bit of the mask of updates()[k] in mask_bits(): a sampled prefix sum of the
+    /// stars (one 64-bit start per 64 updates, then at most 63 stars added).
+    uint64_t mask_offset(size_t k) const {
+        uint64_t at = mask_start_[k >> 6];
+        for (size_t j = k & ~size_t(63); j < k; ++j) at += updates_[j].star;
+        return at;
     }
+    /// Bit `b` of mask_bits(): bit i of update k's mask is mask_bit(mask_offset(k) + i).
+    bool mask_bit(uint64_t b) const { return (mask_bits_[b >> 6] >> (b & 63)) & 1u; }
     uint32_t max_label() const { return max_label_; }
     /// Only when built with record_history.
     const MtHistory* history() const { return history_.empty() ? nullptr : &history_.front(); }
@@ -141,6 +149,7 @@ private:
     std::vector<std::array<uint32_t, 4>> base_;
     std::vector<MtUpdate> updates_;
     std::vector<uint64_t> mask_bits_;
+    std::vector<uint64_t> mask_start_;  // mask offset of updates_[64 j]
     std::vector<uint32_t> csr_start_, csr_items_;
     uint32_t max_label_ = 0;
     std::array<double, 2> range_{0, 0};
