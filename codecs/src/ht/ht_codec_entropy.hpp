@@ -20,11 +20,14 @@ namespace tetlod::rc {
 struct Bit {
     uint16_t p = 32768;
     uint8_t n = 0;
-    void update(int bit) {
+    // Both moves computed and one selected: the bit is data, and a branch on
+    // it is mispredicted about as often as the bit is surprising.
+    [[gnu::always_inline]] void update(int bit) {
         const int shift = n < 5 ? n + 1 : 6;
-        if (n < 5) ++n;
-        if (bit) p = uint16_t(p - (p >> shift));
-        else p = uint16_t(p + ((65536u - p) >> shift));
+        n = uint8_t(n + (n < 5));
+        const uint32_t down = uint32_t(p) - (uint32_t(p) >> shift);
+        const uint32_t up = uint32_t(p) + ((65536u - p) >> shift);
+        p = uint16_t(bit ? down : up);
     }
 };
 
@@ -85,35 +88,24 @@ public:
         if (next() != 0) overrun_ = true;  // the first byte is always 0 (spec §7.4)
         for (int i = 0; i < 4; ++i) code_ = (code_ << 8) | next();
     }
-    int decode(Bit& b) {
+    // Inlined into the coders' loops (the compiler would otherwise call it:
+    // a fifth of the field decode was call overhead around it), and without
+    // a branch on the decoded bit (selects instead), so only the callers'
+    // uses of the bit can be mispredicted.
+    [[gnu::always_inline]] int decode(Bit& b) {
         const uint32_t bound = (range_ >> 16) * b.p;
-        int bit;
-        if (code_ < bound) {
-            range_ = bound;
-            bit = 0;
-        } else {
-            code_ -= bound;
-            range_ -= bound;
-            bit = 1;
-        }
+        const int bit = code_ >= bound;
+        code_ -= bit ? bound : 0;
+        range_ = bit ? range_ - bound : bound;
         b.update(bit);
-        while (range_ < (1u << 24)) {
-            range_ <<= 8;
-            code_ = (code_ << 8) | next();
-        }
+        normalize();
         return bit;
     }
-    int decode_direct() {
+    [[gnu::always_inline]] int decode_direct() {
         range_ >>= 1;
-        int bit = 0;
-        if (code_ >= range_) {
-            code_ -= range_;
-            bit = 1;
-        }
-        while (range_ < (1u << 24)) {
-            range_ <<= 8;
-            code_ = (code_ << 8) | next();
-        }
+        const int bit = code_ >= range_;
+        code_ -= bit ? range_ : 0;
+        normalize();
         return bit;
     }
     /// True when the stream ended early or is malformed; also when not all
@@ -122,6 +114,13 @@ public:
     bool overrun() const { return overrun_; }
 
 private:
+    [[gnu::always_inline]] void normalize() {
+        // At most two steps: a decision shrinks the range by at most 2^16.
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            code_ = (code_ << 8) | next();
+        }
+    }
     uint32_t next() {
         if (p_ == end_) {
             overrun_ = true;
@@ -146,7 +145,7 @@ struct IntModel {
 };
 
 /// Bit length of v (0 for 0).
-inline int bit_length(uint64_t v) { return v ? 64 - __builtin_clzll(v) : 0; }
+[[gnu::always_inline]] inline int bit_length(uint64_t v) { return v ? 64 - __builtin_clzll(v) : 0; }
 
 /// mag: |value| (1 .. 2^64-1 or 0); neg: sign. maxlen: the largest possible length.
 inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
@@ -169,7 +168,7 @@ inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxl
 
 /// Inverse of encode_int; returns false (value meaningless) when the decoded
 /// length exceeds maxlen (cannot happen: the unary code stops at maxlen).
-inline void decode_int(Decoder& d, IntModel& m, uint64_t& mag, bool& neg, int maxlen) {
+[[gnu::always_inline]] inline void decode_int(Decoder& d, IntModel& m, uint64_t& mag, bool& neg, int maxlen) {
     if (d.decode(m.zero)) {
         mag = 0;
         neg = false;

@@ -2,7 +2,7 @@
 // Residual coding 2, error chunks (spec §8.3): quantized error codes coded
 // against the bound the lattice of the diamond allows.
 
-#include "ht_prediction.hpp"
+#include "ht_chunk_rows.hpp"
 
 namespace tetlod::ht_detail {
 

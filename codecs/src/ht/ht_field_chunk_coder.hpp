@@ -2,13 +2,39 @@
 // Residual coding 2, field chunks (spec §7.3-§7.5): residuals of the prediction
 // through the adaptive range coder.
 
-#include "ht_prediction.hpp"
+#include "ht_chunk_rows.hpp"
 
 namespace tetlod::ht_detail {
 
 struct FieldModels {
     rc::IntModel m[4][16];
 };
+
+/// Walks a chunk's points in coding order 2 and calls
+/// f(cls, prediction, field index, lattice slot) for each: the encoder and the
+/// decoder share it, so they cannot disagree on order or prediction.
+template <class T, class F>
+void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const ChunkLattice& lat, F&& f) {
+    const ChunkFrame Fr(G, c.cycle, c.box);
+    const int t = c.cycle;
+    for_each_row_v2(G, t, c.box, [&](const ChunkRow& row) {
+        dispatch_row_class(row, [&]<int Cls>(const ChunkRow& r) {
+            int64_t idx = G.index(r.x0, r.y, r.z);
+            int64_t s = lat.slot(r.x0, r.y, r.z);
+            const int64_t didx = G.index_delta(r.step, 0, 0), ds = r.step >> t;
+            if constexpr (Cls == 3) {
+                for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
+            } else {
+                const RowPredictor<T, Cls> P(Fr, r);
+                for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+                    const Prediction pr =
+                        P.interior(x) ? P.at(v, idx) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
+                    f(Cls, pr, idx, s);
+                }
+            }
+        });
+    });
+}
 
 template <class T>
 std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, const HtChunk& c) {
@@ -19,13 +45,9 @@ std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, cons
     auto models = std::make_unique<FieldModels>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
-    const ChunkFrame F(G, c.cycle, c.box);
     prefetch_chunk(G, v, c.cycle, c.box, 1);
     rc::Encoder enc(out);
-    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
-        const int64_t idx = G.index(x, y, z);
-        const Prediction pr = predict_point(G, v, F, c.cycle, cls, x, y, z, idx);
-        const int64_t s = lat.slot(x, y, z);
+    walk_field_chunk(G, v, c, lat, [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
         const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
         const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
         const bool neg = r < 0;
@@ -46,13 +68,9 @@ bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<
     auto models = std::make_unique<FieldModels>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
-    const ChunkFrame F(G, c.cycle, c.box);
     rc::Decoder dec(in.data(), in.size());
-    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
-        if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
-        const int64_t idx = G.index(x, y, z);
-        const Prediction pr = predict_point(G, v, F, c.cycle, cls, x, y, z, idx);
-        const int64_t s = lat.slot(x, y, z);
+    walk_field_chunk(G, v, c, lat, [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
+        if (dec.overrun()) return;  // a valid stream never reads past its end: skip the rest
         const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
         uint64_t mag;
         bool neg;

@@ -9,7 +9,7 @@ namespace tetlod::ht_detail {
 // ---- residual coding 2 (spec §7.3-§7.5, §8.3): class-ordered chunks, adaptive range coder ----
 
 /// Activity bucket of spec §7.5: bit length, compressed above 8.
-inline int activity_bucket(uint64_t a) {
+[[gnu::always_inline]] inline int activity_bucket(uint64_t a) {
     const int bl = rc::bit_length(a);
     return bl <= 8 ? bl : std::min(15, 8 + (bl - 6) / 3);
 }
@@ -44,7 +44,7 @@ struct ChunkLattice {
     void set(int64_t s, uint64_t m) { mag[std::size_t(s)] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
     /// Spec §7.6: mean magnitude of the already coded lattice neighbours among
     /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
-    uint64_t neighbour_mean(int64_t s) const {
+    [[gnu::always_inline]] uint64_t neighbour_mean(int64_t s) const {
         const uint32_t* q = mag.data() + s;
         const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
         // sum of (w - 1) over the set slots = sum of w - their count
@@ -55,12 +55,23 @@ struct ChunkLattice {
             n += w != 0;
         }
         sum -= n;
-        // Most neighbourhoods are all zero residuals, and the rest small: skip
-        // the 64-bit division, which costs several times a 32-bit one.
+        // Most neighbourhoods are all zero residuals, and the rest small: a
+        // multiply by the reciprocal instead of a division, which was the
+        // largest single cost of this function in the decoder's profile.
         if (sum == 0) return 0;
-        if (sum <= 0xFFFFFFFFu) return uint32_t(sum) / n;
+        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
         return sum / n;
     }
+    /// floor(x / n) = (x · ceil(2^37 / n)) >> 37 for x < 2^26 and 1 <= n <= 9:
+    /// the product is x / n plus less than x / 2^37 < 2^-11, and the fraction
+    /// of x / n is at most (n - 1) / n, which leaves 1 / n > 2^-11 of margin;
+    /// x · ceil(2^37 / n) < 2^63 (tests/codecs: every n, the limits).
+    static constexpr int kReciprocalShift = 37;
+    static constexpr uint64_t kReciprocalLimit = uint64_t{1} << 26;
+    static constexpr uint64_t kReciprocal[10] = {
+        0, (uint64_t{1} << 37) / 1, ((uint64_t{1} << 37) + 1) / 2, ((uint64_t{1} << 37) + 2) / 3,
+        ((uint64_t{1} << 37) + 3) / 4, ((uint64_t{1} << 37) + 4) / 5, ((uint64_t{1} << 37) + 5) / 6,
+        ((uint64_t{1} << 37) + 6) / 7, ((uint64_t{1} << 37) + 7) / 8, ((uint64_t{1} << 37) + 8) / 9};
 };
 
 /// Offsets of the 27 points c + h·(ox, oy, oz), o in {-1, 0, 1}^3, coded as
@@ -218,35 +229,6 @@ void prefetch_chunk(const Geometry& G, const V* data, int t, const std::array<in
             for (const char* p = first; p < last; p += step) prefetch_line(p);
             prefetch_line(last);
         }
-}
-
-/// Calls f(x, y, z, cls) for the chunk's points in coding order 2: class 0
-/// (cube centres), class 1 (face centres), class 2 (edge midpoints), each z
-/// outer, x inner; the corner cycle t = k is one pass with cls = 3.
-template <class F>
-void for_each_point_v2(const Geometry& G, int t, const std::array<int64_t, 6>& b, F&& f) {
-    if (t == G.k) {
-        G.for_each_point(t, b, [&](int64_t x, int64_t y, int64_t z) { f(x, y, z, 3); });
-        return;
-    }
-    const int64_t h = int64_t{1} << t;
-    auto up = [&](int64_t v) { return (v + h - 1) / h * h; };
-    for (int cls = 0; cls < 3; ++cls) {
-        const int want_odd = 3 - cls;
-        for (int64_t z = up(b[2]); z <= b[5]; z += h) {
-            const int oz = (z & h) != 0;
-            for (int64_t y = up(b[1]); y <= b[4]; y += h) {
-                const int oy = (y & h) != 0;
-                const int64_t xs = up(b[0]);
-                // x parity fixed by the class: odd needed iff want_odd - oz - oy == 1.
-                const int need = want_odd - oz - oy;
-                if (need < 0 || need > 1) continue;
-                int64_t x = xs;
-                if (((x & h) != 0) != (need == 1)) x += h;
-                for (; x <= b[3]; x += 2 * h) f(x, y, z, cls);
-            }
-        }
-    }
 }
 
 struct Prediction {
