@@ -65,33 +65,49 @@ void for_each_point_v2(const Geometry& G, int t, const std::array<int64_t, 6>& b
 template <int Cls> constexpr int kCoarseCount = Cls == 0 ? 8 : (Cls == 1 ? 4 : 2);
 template <int Cls> constexpr int kFineCount = Cls == 0 ? 0 : (Cls == 1 ? 2 : 4);
 
-/// The neighbour predictor along one row: `interior(x)` says whether the point
-/// is in the chunk interior (ChunkFrame::interior), where `at` applies the
-/// row's fixed stencil; elsewhere the general predict_v2 is used. Same result
-/// as predict_point everywhere.
+/// The neighbour predictor along one row. Spec §7.4 reads the coarse stencil
+/// whenever it lies in B and adds the fine one when that lies in the chunk's
+/// box too; both tests split into a per-row part (y, z) and an x range, so a
+/// point needs the general predict_v2 only when a coarse neighbour is outside
+/// B (the far faces of B). Points on the chunk's faces (about a fifth of a
+/// 32^3 brick) then take the fixed stencil as well. Same result as
+/// predict_point everywhere.
 template <class T, int Cls>
 struct RowPredictor {
-    int64_t off[8]{};  // coarse offsets, then fine ones (linear field offsets)
-    bool row_in = false;
-    int64_t xlo = 0, xhi = -1;  // interior x range of the row
+    int64_t off[8]{};           // coarse offsets, then fine ones (linear field offsets)
+    int64_t coarse_hi = -1;     // coarse stencil in B iff x <= coarse_hi
+    int64_t fine_lo = 0, fine_hi = -1;  // fine stencil in the chunk iff fine_lo <= x <= fine_hi
 
-    RowPredictor(const ChunkFrame& F, const ChunkRow& r) {
+    RowPredictor(const Geometry& G, const ChunkFrame& F, const ChunkRow& r) {
         static_assert(Cls >= 0 && Cls < 3, "corners (class 3) are predicted as 0, without a stencil");
         const int64_t h = F.h;
-        row_in = r.y - h >= F.cb[1] && r.y + h <= F.cb[4] && r.z - h >= F.cb[2] && r.z + h <= F.cb[5];
-        xlo = F.cb[0] + h;
-        xhi = F.cb[3] - h;
         // Along a row y and z are fixed and x keeps its parity (step 2h), so the
         // odd-axis mask is the row's.
         const int mask = ((r.x0 & h) ? 1 : 0) | ((r.y & h) ? 2 : 0) | ((r.z & h) ? 4 : 0);
+        // Coarse neighbours: c ± h on the odd axes; c - h >= 0 always holds.
+        const bool yz_coarse = (!(mask & 2) || r.y + h <= G.box_max[1]) && (!(mask & 4) || r.z + h <= G.box_max[2]);
+        coarse_hi = !yz_coarse ? std::numeric_limits<int64_t>::min()
+                    : (mask & 1) ? G.box_max[0] - h
+                                 : std::numeric_limits<int64_t>::max();
+        // Fine neighbours: c ± h on the even axes, inside the chunk's box.
+        const bool yz_fine = ((mask & 2) || (r.y - h >= F.cb[1] && r.y + h <= F.cb[4])) &&
+                             ((mask & 4) || (r.z - h >= F.cb[2] && r.z + h <= F.cb[5]));
+        if (yz_fine) {
+            fine_lo = (mask & 1) ? std::numeric_limits<int64_t>::min() : F.cb[0] + h;
+            fine_hi = (mask & 1) ? std::numeric_limits<int64_t>::max() : F.cb[3] - h;
+        } else {
+            fine_lo = std::numeric_limits<int64_t>::max();
+            fine_hi = std::numeric_limits<int64_t>::min();
+        }
         const PredictorStencils& P = predictor_stencils();
         for (int i = 0; i < kCoarseCount<Cls>; ++i) off[i] = F.off[P.coarse[mask][i]];
         for (int i = 0; i < kFineCount<Cls>; ++i) off[kCoarseCount<Cls> + i] = F.off[P.fine[mask][i]];
     }
-    bool interior(int64_t x) const { return row_in && x >= xlo && x <= xhi; }
+    /// Whether at() applies to the point of the row at x.
+    bool fixed(int64_t x) const { return x <= coarse_hi; }
 
-    /// predict_interior with the row's stencil (idx: the point's field index).
-    Prediction at(const T* v, int64_t idx) const {
+    /// Spec §7.4 for a point whose coarse stencil is in B (fixed(x); idx: its field index).
+    Prediction at(const T* v, int64_t idx, int64_t x) const {
         using Sum = std::conditional_t<(sizeof(T) < 8), int64_t, i128>;
         const T* c = v + idx;
         int64_t w = Dom<T>::get(c[off[0]]);
@@ -104,17 +120,23 @@ struct RowPredictor {
             mx = std::max(mx, w);
         }
         Prediction r;
+        // log2 of the coarse count: the coarse mean's shift.
+        constexpr int kShift = Cls == 0 ? 3 : (Cls == 1 ? 2 : 1);
         if constexpr (Cls == 0) {
-            r.p = int64_t(coarse >> 3);
+            r.p = int64_t(coarse >> kShift);
         } else {
-            Sum fine = 0;
-            for (int i = 0; i < kFineCount<Cls>; ++i) {
-                w = Dom<T>::get(c[off[kCoarseCount<Cls> + i]]);
-                fine += w;
-                mn = std::min(mn, w);
-                mx = std::max(mx, w);
+            if (x >= fine_lo && x <= fine_hi) {
+                Sum fine = 0;
+                for (int i = 0; i < kFineCount<Cls>; ++i) {
+                    w = Dom<T>::get(c[off[kCoarseCount<Cls> + i]]);
+                    fine += w;
+                    mn = std::min(mn, w);
+                    mx = std::max(mx, w);
+                }
+                r.p = Cls == 1 ? int64_t((coarse + 2 * fine) >> 3) : int64_t((2 * coarse + fine) >> 3);
+            } else {
+                r.p = int64_t(coarse >> kShift);
             }
-            r.p = Cls == 1 ? int64_t((coarse + 2 * fine) >> 3) : int64_t((2 * coarse + fine) >> 3);
         }
         r.spread = uint64_t(mx) - uint64_t(mn);
         return r;

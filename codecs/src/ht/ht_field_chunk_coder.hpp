@@ -25,10 +25,10 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
             if constexpr (Cls == 3) {
                 for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
             } else {
-                const RowPredictor<T, Cls> P(Fr, r);
+                const RowPredictor<T, Cls> P(G, Fr, r);
                 for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
                     const Prediction pr =
-                        P.interior(x) ? P.at(v, idx) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
+                        P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
                     f(Cls, pr, idx, s);
                 }
             }
