@@ -12,9 +12,11 @@ struct FieldModels {
 
 /// Walks a chunk's points in coding order 2 and calls
 /// f(cls, prediction, field index, lattice slot) for each: the encoder and the
-/// decoder share it, so they cannot disagree on order or prediction.
+/// decoder share it, so they cannot disagree on order or prediction. A
+/// copy-assignable f (a value type, not a lambda) is copied into a local for
+/// each row and back after it, so its state can live in registers.
 template <class T, class F>
-void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const ChunkLattice& lat, F&& f) {
+void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const ChunkLattice& lat, F& f) {
     const ChunkFrame Fr(G, c.cycle, c.box);
     const int t = c.cycle;
     for_each_row_v2(G, t, c.box, [&](const ChunkRow& row) {
@@ -26,10 +28,19 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
                 for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
             } else {
                 const RowPredictor<T, Cls> P(G, Fr, r);
-                for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
-                    const Prediction pr =
-                        P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
-                    f(Cls, pr, idx, s);
+                auto row = [&](auto& step) {
+                    for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+                        const Prediction pr =
+                            P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
+                        step(Cls, pr, idx, s);
+                    }
+                };
+                if constexpr (std::is_copy_assignable_v<F>) {
+                    F local = f;
+                    row(local);
+                    f = local;
+                } else {
+                    row(f);
                 }
             }
         });
@@ -47,39 +58,54 @@ std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, cons
     ChunkLattice lat(c.cycle, c.box, storage);
     prefetch_chunk(G, v, c.cycle, c.box, 1);
     rc::Encoder enc(out);
-    walk_field_chunk(G, v, c, lat, [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
+    auto code = [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
         const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
         const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
         const bool neg = r < 0;
         const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
         rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, W);
         lat.set(s, mag);
-    });
+    };
+    walk_field_chunk(G, v, c, lat, code);
     enc.finish();
     return out;
 }
 
-/// False on a malformed stream.
+/// The decoder's step for one point, as a value type: walk_field_chunk keeps
+/// a copy in locals for each row, so the range decoder's state and the lattice
+/// pointer stay in registers across the stores of decoded values (as members
+/// of an object in memory, every u8 store, which may alias anything, forced
+/// their reload).
 template <class T>
-bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<const std::byte> in) {
-    using D = Dom<T>;
-    constexpr int W = D::W;
-    if (c.points == 0) return in.empty();
-    auto models = std::make_unique<FieldModels>();
-    thread_local std::vector<uint32_t> storage;
-    ChunkLattice lat(c.cycle, c.box, storage);
-    rc::Decoder dec(in.data(), in.size());
-    walk_field_chunk(G, v, c, lat, [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
+struct FieldPointDecoder {
+    rc::Decoder dec;
+    FieldModels* models = nullptr;
+    T* v = nullptr;
+    LatticeView lat;
+
+    [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
+        using D = Dom<T>;
         if (dec.overrun()) return;  // a valid stream never reads past its end: skip the rest
         const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
         uint64_t mag;
         bool neg;
-        rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, W);
+        rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, D::W);
         const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
         v[idx] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
         lat.set(s, mag);
-    });
-    return !dec.bad_end();
+    }
+};
+
+/// False on a malformed stream.
+template <class T>
+bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<const std::byte> in) {
+    if (c.points == 0) return in.empty();
+    auto models = std::make_unique<FieldModels>();
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    FieldPointDecoder<T> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view()};
+    walk_field_chunk(G, v, c, lat, step);
+    return !step.dec.bad_end();
 }
 
 }  // namespace tetlod::ht_detail

@@ -14,6 +14,46 @@ namespace tetlod::ht_detail {
     return bl <= 8 ? bl : std::min(15, 8 + (bl - 6) / 3);
 }
 
+/// The magnitudes of a ChunkLattice (saturated magnitude + 1, 0 = unset) at
+/// `mag`, with its row and plane strides.
+struct LatticeView {
+    uint32_t* mag = nullptr;
+    int64_t px = 0, pxy = 0;
+    [[gnu::always_inline]] void set(int64_t s, uint64_t m) const {
+        mag[s] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1);
+    }
+    /// Spec §7.6: mean magnitude of the already coded lattice neighbours among
+    /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
+    [[gnu::always_inline]] uint64_t neighbour_mean(int64_t s) const {
+        const uint32_t* q = mag + s;
+        const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
+        // sum of (w - 1) over the set slots = sum of w - their count
+        uint64_t sum = 0;
+        uint32_t n = 0;
+        for (uint32_t w : v) {
+            sum += w;
+            n += w != 0;
+        }
+        sum -= n;
+        // Most neighbourhoods are all zero residuals, and the rest small: a
+        // multiply by the reciprocal instead of a division, which was the
+        // largest single cost of this function in the decoder's profile.
+        if (sum == 0) return 0;
+        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
+        return sum / n;
+    }
+    /// floor(x / n) = (x · ceil(2^37 / n)) >> 37 for x < 2^26 and 1 <= n <= 9:
+    /// the product is x / n plus less than x / 2^37 < 2^-11, and the fraction
+    /// of x / n is at most (n - 1) / n, which leaves 1 / n > 2^-11 of margin;
+    /// x · ceil(2^37 / n) < 2^63 (tests/codecs: every n, the limits).
+    static constexpr int kReciprocalShift = 37;
+    static constexpr uint64_t kReciprocalLimit = uint64_t{1} << 26;
+    static constexpr uint64_t kReciprocal[10] = {
+        0, (uint64_t{1} << 37) / 1, ((uint64_t{1} << 37) + 1) / 2, ((uint64_t{1} << 37) + 2) / 3,
+        ((uint64_t{1} << 37) + 3) / 4, ((uint64_t{1} << 37) + 4) / 5, ((uint64_t{1} << 37) + 5) / 6,
+        ((uint64_t{1} << 37) + 6) / 7, ((uint64_t{1} << 37) + 7) / 8, ((uint64_t{1} << 37) + 8) / 9};
+};
+
 /// Lattice of a chunk's box at spacing h: per point a saturated magnitude + 1
 /// (0 = not coded yet in this chunk), for the neighbour contexts. The lattice
 /// carries a border of 2 cells below and 1 above on every axis that is never
@@ -41,37 +81,12 @@ struct ChunkLattice {
     int64_t slot(int64_t x, int64_t y, int64_t z) const {
         return (((z - z0) >> t) + 2) * pxy + (((y - y0) >> t) + 2) * px + ((x - x0) >> t) + 2;
     }
-    void set(int64_t s, uint64_t m) { mag[std::size_t(s)] = uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
-    /// Spec §7.6: mean magnitude of the already coded lattice neighbours among
-    /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
-    [[gnu::always_inline]] uint64_t neighbour_mean(int64_t s) const {
-        const uint32_t* q = mag.data() + s;
-        const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
-        // sum of (w - 1) over the set slots = sum of w - their count
-        uint64_t sum = 0;
-        uint32_t n = 0;
-        for (uint32_t w : v) {
-            sum += w;
-            n += w != 0;
-        }
-        sum -= n;
-        // Most neighbourhoods are all zero residuals, and the rest small: a
-        // multiply by the reciprocal instead of a division, which was the
-        // largest single cost of this function in the decoder's profile.
-        if (sum == 0) return 0;
-        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
-        return sum / n;
-    }
-    /// floor(x / n) = (x · ceil(2^37 / n)) >> 37 for x < 2^26 and 1 <= n <= 9:
-    /// the product is x / n plus less than x / 2^37 < 2^-11, and the fraction
-    /// of x / n is at most (n - 1) / n, which leaves 1 / n > 2^-11 of margin;
-    /// x · ceil(2^37 / n) < 2^63 (tests/codecs: every n, the limits).
-    static constexpr int kReciprocalShift = 37;
-    static constexpr uint64_t kReciprocalLimit = uint64_t{1} << 26;
-    static constexpr uint64_t kReciprocal[10] = {
-        0, (uint64_t{1} << 37) / 1, ((uint64_t{1} << 37) + 1) / 2, ((uint64_t{1} << 37) + 2) / 3,
-        ((uint64_t{1} << 37) + 3) / 4, ((uint64_t{1} << 37) + 4) / 5, ((uint64_t{1} << 37) + 5) / 6,
-        ((uint64_t{1} << 37) + 6) / 7, ((uint64_t{1} << 37) + 7) / 8, ((uint64_t{1} << 37) + 8) / 9};
+    /// The magnitudes as a plain pointer and strides: a coder copies it into
+    /// locals, where no store of a decoded value (a u8 store may alias
+    /// anything) forces its reload.
+    LatticeView view() const { return LatticeView{mag.data(), px, pxy}; }
+    void set(int64_t s, uint64_t m) { view().set(s, m); }
+    uint64_t neighbour_mean(int64_t s) const { return view().neighbour_mean(s); }
 };
 
 /// Offsets of the 27 points c + h·(ox, oy, oz), o in {-1, 0, 1}^3, coded as
