@@ -1,6 +1,7 @@
 // Volumes plane by plane, as a third party uses them: a container read back
 // plane by plane (open_container_planes) gives the samples of the whole decode
-// for any order of reads and any cache, including one that keeps nothing;
+// for any order of reads, any cache, including one that keeps nothing, and 1
+// or 2 threads (chunks decode in parallel);
 // writers fed planes write the bytes of writing the whole volume; a raw file
 // read by offset gives its samples; a corrupt chunk met while reading planes
 // is an error naming the container, and the output is not left behind.
@@ -58,6 +59,9 @@ TEST(VolumePlanes, ContainerPlanesEqualTheWholeDecodeInAnyOrderAndCache) {
         o.brick_log2 = c.brick_log2;
         o.zstd_level = 3;
         write_container(Volume(v), path, o);
+        for (int threads : {1, 2}) {
+        SCOPED_TRACE("threads " + std::to_string(threads));
+        const ThreadLimit limit(threads);
         const Volume whole = decode_container(path).take();
         ASSERT_TRUE(whole.data == v.data);
         const auto orders = tetlod::test::plane_orders(c.dims.z, 7);
@@ -79,6 +83,7 @@ TEST(VolumePlanes, ContainerPlanesEqualTheWholeDecodeInAnyOrderAndCache) {
             std::vector<std::byte> all(whole.data.size());
             planes->read(0, c.dims.z, all.data());
             EXPECT_TRUE(std::equal(all.begin(), all.end(), whole.data.begin()));
+        }
         }
     }
 }

@@ -1,6 +1,8 @@
-// The .tlod container: round trips for every value type, and the edges of the
-// stream (every prefix, single-bit flips, trailing bytes, hostile headers).
+// The .tlod container: round trips for every value type (the same bytes and
+// the same decode with 1 and 2 threads), and the edges of the stream (every
+// prefix, single-bit flips, trailing bytes, hostile headers).
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstring>
@@ -46,6 +48,12 @@ Expected<HtDecoded> decode_all(std::span<const std::byte> b) {
     return decode_ht(*r);
 }
 
+// At most `threads` worker threads while alive (chunks of a cycle are encoded
+// and decoded in parallel; the results must not depend on it).
+tbb::global_control thread_limit(int threads) {
+    return tbb::global_control(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+}
+
 // Rewrites the header checksum after editing header bytes.
 void reseal_header(std::vector<std::byte>& f) {
     store_le(f.data() + 56, checksum64(std::span<const std::byte>(f.data(), 56)), 8);
@@ -68,12 +76,27 @@ TEST_P(RoundTrip, BitExactForEveryValueType) {
             HtBuildOptions bo;
             bo.pad = pad;
             HtModel m = HtModel::build(v, bo);
-            ContainerWriter w;
             HtEncodeOptions eo;
             eo.zstd_level = 1;
             eo.brick_log2 = 1;  // many bricks even on tiny grids
-            encode_ht(m, metadata_for_volume(v), w, eo);
-            auto bytes = w.finish();
+            std::vector<std::byte> bytes;
+            for (int threads : {1, 2}) {
+                const auto limit = thread_limit(threads);
+                ContainerWriter w;
+                encode_ht(m, metadata_for_volume(v), w, eo);
+                auto b = w.finish();
+                if (threads == 1) bytes = std::move(b);
+                else ASSERT_TRUE(b == bytes) << "encoded bytes differ with 2 threads";
+            }
+            {
+                // Field and errors decoded with 1 and 2 threads: identical.
+                const auto one = [&] { const auto l = thread_limit(1); return decode_all(bytes); }();
+                const auto two = [&] { const auto l = thread_limit(2); return decode_all(bytes); }();
+                ASSERT_TRUE(one.ok() && two.ok());
+                ASSERT_TRUE(one->field.data == two->field.data);
+                ASSERT_EQ(one->errors.size(), two->errors.size());
+                ASSERT_EQ(std::memcmp(one->errors.data(), two->errors.data(), one->errors.size() * sizeof(float)), 0);
+            }
             auto back = decode_bytes(bytes);
             ASSERT_TRUE(back.ok()) << back.failure().message;
             ASSERT_EQ(back->dims, v.dims);
@@ -115,9 +138,12 @@ TEST_P(RoundTrip, SpecialFloatValuesAndExtremesBitExact) {
     ContainerWriter w;
     encode_ht(m, metadata_for_volume(v), w);
     auto bytes = w.finish();
-    auto back = decode_bytes(bytes);
-    ASSERT_TRUE(back.ok()) << back.failure().message;
-    EXPECT_EQ(back->data, v.data);
+    for (int threads : {1, 2}) {
+        const auto limit = thread_limit(threads);
+        auto back = decode_bytes(bytes);
+        ASSERT_TRUE(back.ok()) << back.failure().message;
+        EXPECT_EQ(back->data, v.data) << threads << " threads";
+    }
 }
 
 TEST(ErrorQuantizer, RoundsUpAndIsMonotone) {

@@ -45,7 +45,8 @@ struct LatticeView {
     /// floor(x / n) = (x · ceil(2^37 / n)) >> 37 for x < 2^26 and 1 <= n <= 9:
     /// the product is x / n plus less than x / 2^37 < 2^-11, and the fraction
     /// of x / n is at most (n - 1) / n, which leaves 1 / n > 2^-11 of margin;
-    /// x · ceil(2^37 / n) < 2^63 (tests/codecs: every n, the limits).
+    /// x · ceil(2^37 / n) < 2^63 (tests/format/test_ht_neighbour_mean.cpp checks
+    /// every x below the limit for every n).
     static constexpr int kReciprocalShift = 37;
     static constexpr uint64_t kReciprocalLimit = uint64_t{1} << 26;
     static constexpr uint64_t kReciprocal[10] = {
