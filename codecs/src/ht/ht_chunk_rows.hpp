@@ -71,7 +71,7 @@ template <int Cls> constexpr int kFineCount = Cls == 0 ? 0 : (Cls == 1 ? 2 : 4);
 /// point needs the general predict_v2 only when a coarse neighbour is outside
 /// B (the far faces of B). Points on the chunk's faces (about a fifth of a
 /// 32^3 brick) then take the fixed stencil as well. Same result as
-/// predict_point everywhere.
+/// predict_v2 everywhere.
 template <class T, int Cls>
 struct RowPredictor {
     int64_t off[8]{};           // coarse offsets, then fine ones (linear field offsets)

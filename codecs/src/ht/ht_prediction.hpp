@@ -333,49 +333,4 @@ Prediction predict_v2(const Geometry& G, const T* v, int t, int cls, int64_t x, 
     return r;
 }
 
-/// Predictor 2 in the chunk interior (ChunkFrame::interior): every coarse
-/// neighbour is in B and every fine one in the chunk, so the stencils are fixed.
-/// Same result as predict_v2 there.
-template <class T>
-Prediction predict_interior(const T* v, int64_t idx, int mask, int cls, const ChunkFrame& F) {
-    using Sum = std::conditional_t<(sizeof(T) < 8), int64_t, i128>;
-    const PredictorStencils& P = predictor_stencils();
-    const T* c = v + idx;
-    int64_t w = Dom<T>::get(c[F.off[P.coarse[mask][0]]]);
-    int64_t mn = w, mx = w;
-    Sum coarse = w;
-    for (int i = 1; i < P.nc[mask]; ++i) {
-        w = Dom<T>::get(c[F.off[P.coarse[mask][i]]]);
-        coarse += w;
-        mn = std::min(mn, w);
-        mx = std::max(mx, w);
-    }
-    Prediction r;
-    if (cls == 0) {
-        r.p = int64_t(coarse >> 3);
-    } else {
-        Sum fine = 0;
-        for (int i = 0; i < P.nf[mask]; ++i) {
-            w = Dom<T>::get(c[F.off[P.fine[mask][i]]]);
-            fine += w;
-            mn = std::min(mn, w);
-            mx = std::max(mx, w);
-        }
-        r.p = cls == 1 ? int64_t((coarse + 2 * fine) >> 3) : int64_t((2 * coarse + fine) >> 3);
-    }
-    r.spread = uint64_t(mx) - uint64_t(mn);
-    return r;
-}
-
-template <class T>
-Prediction predict_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int cls, int64_t x,
-                         int64_t y, int64_t z, int64_t idx) {
-    if (cls < 3 && F.interior(x, y, z)) {
-        const int64_t h = F.h;
-        const int mask = ((x & h) ? 1 : 0) | ((y & h) ? 2 : 0) | ((z & h) ? 4 : 0);
-        return predict_interior(v, idx, mask, cls, F);
-    }
-    return predict_v2(G, v, t, cls, x, y, z, F.cb);
-}
-
 }  // namespace tetlod::ht_detail
