@@ -9,7 +9,7 @@ set(TETLOD_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/tetlod)
 
 # Dependency order (a library before what it links), so the pkg-config link line
 # below works for static archives too. `tetlod` is the umbrella (api/).
-set(TETLOD_EXPORTED_TARGETS tetlod tetlod_analysis tetlod_codecs tetlod_models tetlod_format
+set(TETLOD_EXPORTED_TARGETS tetlod tetlod_container_write tetlod_analysis tetlod_codecs tetlod_models tetlod_format
   tetlod_volume_formats tetlod_vdb_io tetlod_hdf5_io tetlod_volume_io tetlod_mesh_io
   tetlod_surface_io tetlod_core)
 set(_tetlod_present)
@@ -35,8 +35,9 @@ file(GLOB _tetlod_include_dirs LIST_DIRECTORIES true
   ${PROJECT_SOURCE_DIR}/*/include ${PROJECT_SOURCE_DIR}/*/*/include)
 foreach(dir IN LISTS _tetlod_include_dirs)
   if(IS_DIRECTORY ${dir}/tetlod AND NOT dir MATCHES "/(tests|bench|fuzz|build[^/]*)/")
+    # hdf5_mpi.hpp belongs to tetlod-mpi's private reader (not installed).
     install(DIRECTORY ${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-      FILES_MATCHING PATTERN "*.hpp")
+      FILES_MATCHING PATTERN "*.hpp" PATTERN "hdf5_mpi.hpp" EXCLUDE)
   endif()
 endforeach()
 foreach(dir ${PROJECT_BINARY_DIR}/api/generated ${PROJECT_BINARY_DIR}/converters/volume_formats/generated)

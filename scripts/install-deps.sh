@@ -10,6 +10,10 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libxxhash-dev
   libopenvdb-dev libboost-iostreams-dev
   libhdf5-dev hdf5-tools
+  # tetlod-mpi (TETLOD_WITH_MPI): MPI and the parallel HDF5, installed beside the
+  # serial one (its own include and library folders under .../hdf5/openmpi; h5cc
+  # stays the serial wrapper, so FindHDF5 still finds the serial library).
+  libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
   libzfp-dev  # optional: only bench_container's zfp peer (its columns say n/a without it)
   libopenmesh-dev
   clang libclang-rt-14-dev

@@ -105,30 +105,6 @@ double parse_number(const std::string& text, const std::string& flag) {
     return v;
 }
 
-std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
-    // A number, then optionally K, M, G or T (powers of 1024, as zstd's
-    // --memory), optionally followed by "B" or "iB".
-    std::size_t n = 0;
-    while (n < text.size() && (std::isdigit(static_cast<unsigned char>(text[n])) || text[n] == '.')) ++n;
-    double v = 0.0;
-    auto [p, ec] = std::from_chars(text.data(), text.data() + n, v);
-    if (n == 0 || ec != std::errc() || p != text.data() + n || !std::isfinite(v))
-        throw bad(flag, text, "expected a size such as 512M, 2G or 1073741824");
-    std::string unit = text.substr(n);
-    for (char& c : unit) c = char(std::toupper(static_cast<unsigned char>(c)));
-    if (unit.size() >= 2 && unit.substr(unit.size() - 2) == "IB") unit.resize(unit.size() - 2);
-    else if (unit.size() >= 2 && unit.back() == 'B') unit.pop_back();
-    double scale = 1;
-    if (unit == "K") scale = 1024.0;
-    else if (unit == "M") scale = 1024.0 * 1024;
-    else if (unit == "G") scale = 1024.0 * 1024 * 1024;
-    else if (unit == "T") scale = 1024.0 * 1024 * 1024 * 1024;
-    else if (!unit.empty() && unit != "B") throw bad(flag, text, "unknown unit '" + text.substr(n) + "' (K, M, G or T)");
-    const double bytes = v * scale;
-    if (bytes < 1 || bytes > 1e18) throw bad(flag, text, "out of range");
-    return std::size_t(bytes);
-}
-
 Dims parse_dims(const std::string& text, const std::string& flag) {
     const auto parts = split(text);
     if (parts.size() != 3) throw bad(flag, text, "expected X,Y,Z");

@@ -1,7 +1,7 @@
 #pragma once
 // Exit codes of the command line (documented in README): mapped from the
 // library's error codes here only; the libraries report ErrorCode, never exit codes.
-#include "tetlod/tetlod.hpp"
+#include "tetlod/core/error.hpp"
 
 namespace tetlod {
 

@@ -178,14 +178,14 @@ void set_plane_cache(Hdf5Source& src, hid_t dcpl, hid_t access) {
 }  // namespace
 
 Hdf5Source open_hdf5_source(const std::string& file, const std::string& dataset_in, const VolumeReadOptions& options,
-                            uint64_t file_size, bool for_planes) {
+                            uint64_t file_size, bool for_planes, hid_t fapl) {
     silence_hdf5();
     if (H5Fis_hdf5(file.c_str()) <= 0) {
         H5Eclear2(H5E_DEFAULT);
         throw Error(ErrorCode::BadMagic, "'" + file + "' is not an HDF5 file");
     }
     Hdf5Source src;
-    src.file = Hid(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    src.file = Hid(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
     const Hid& f = src.file;
     if (!f.valid()) throw Error(ErrorCode::IoError, "cannot open '" + file + "': " + hdf5_error_text());
     Hid dapl(hdf5_guard::make_safe_dataset_access(file), H5Pclose);
@@ -337,8 +337,19 @@ Hdf5Source open_hdf5_source(const std::string& file, const std::string& dataset_
 }
 
 void read_hdf5_planes(const Hdf5Source& src, int64_t z0, int64_t count, std::byte* dst,
-                      std::vector<std::byte>& scratch) {
+                      std::vector<std::byte>& scratch, hid_t dxpl) {
     const Dims dims = src.header.dims;
+    if (count == 0) {
+        // An empty selection: a collective read needs every rank's call.
+        const hsize_t one = 1;
+        Hid fs(H5Dget_space(src.dataset.get()), H5Sclose);
+        Hid ms(H5Screate_simple(1, &one, nullptr), H5Sclose);
+        std::byte unused[8];
+        if (!fs.valid() || !ms.valid() || H5Sselect_none(fs.get()) < 0 || H5Sselect_none(ms.get()) < 0 ||
+            H5Dread(src.dataset.get(), native_type(src.header.type), ms.get(), fs.get(), dxpl, unused) < 0)
+            throw Error(ErrorCode::CorruptData, src.what + ": cannot join the collective read: " + hdf5_error_text());
+        return;
+    }
     const std::size_t w = value_size(src.header.type);
     hsize_t start[3] = {0, 0, 0}, size[3] = {src.shape[0], src.shape[1], src.shape[2]};
     if (src.rank == 3) {  // rank < 3: dims.z is 1, the plane is the whole dataset
@@ -361,7 +372,7 @@ void read_hdf5_planes(const Hdf5Source& src, int64_t z0, int64_t count, std::byt
         scratch.resize(std::size_t(points) * w);
         out = scratch.data();
     }
-    if (H5Dread(src.dataset.get(), mt, ms.get(), fs.get(), H5P_DEFAULT, out) < 0)
+    if (H5Dread(src.dataset.get(), mt, ms.get(), fs.get(), dxpl, out) < 0)
         throw Error(ErrorCode::CorruptData, src.what + ": cannot read the dataset: " + hdf5_error_text());
     if (!transpose) return;
     // The slab is [x][y][k]; the planes are [k][y][x].

@@ -37,13 +37,17 @@ struct Hdf5Source {
 /// cache is set to hold two layers of chunks across a plane (at most
 /// kMaxPlaneCacheBytes), so reading plane after plane decodes each chunk once.
 /// Safe on untrusted files only in a child process (the library may crash).
+/// `fapl`: the file access property list (the MPI-IO driver for collective
+/// reads, hdf5_mpi.cpp); every rank of its communicator must then call this.
 Hdf5Source open_hdf5_source(const std::string& file, const std::string& dataset, const VolumeReadOptions& options,
-                            uint64_t file_size, bool for_planes);
+                            uint64_t file_size, bool for_planes, hid_t fapl = H5P_DEFAULT);
 
 /// Reads planes z0 .. z0 + count - 1 (in range: the caller checks) into dst,
 /// x fastest in host order, converted by the library as the whole read is.
 /// `scratch` holds the slab of an [x][y][z] dataset before it is transposed.
+/// `dxpl`: the transfer property list (collective MPI-IO reads); count 0 then
+/// selects nothing, so a rank with no planes left still joins the collective.
 void read_hdf5_planes(const Hdf5Source& source, int64_t z0, int64_t count, std::byte* dst,
-                      std::vector<std::byte>& scratch);
+                      std::vector<std::byte>& scratch, hid_t dxpl = H5P_DEFAULT);
 
 }  // namespace tetlod::hdf5_detail

@@ -1,0 +1,157 @@
+// tetlod-mpi: the distributed converter, run under mpirun. One subcommand so
+// far, `convert FILE.h5:/dataset out.tlod`, with the flags of `tetlod convert`
+// that apply to it and the same exit codes (exit_code.hpp).
+//
+// Why a program of its own rather than `mpirun tetlod convert`: it links the
+// parallel libhdf5 (MPI-IO), and `tetlod` links the serial one; the two export
+// the same symbols, so one process must never load both. Keeping MPI out of
+// `tetlod` also keeps it runnable without an MPI runtime (MPI_Init, a launcher,
+// libmpi at load time) and unchanged when built without MPI.
+#include <mpi.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "byte_size.hpp"
+#include "exit_code.hpp"
+#include "mpi_convert.hpp"
+#include "tetlod/core/utf8.hpp"
+
+namespace {
+
+using namespace tetlod;
+
+struct Args {
+    std::string input, output;
+    bool pad = false, force = false, quiet = false;
+    int verbose = 0;
+    std::vector<std::string> meta;
+    int level = 19, brick_log2 = 4, error_bits = 4;
+    std::string memory, axis_order;
+};
+
+void check_meta(const std::vector<std::string>& meta) {
+    for (const std::string& kv : meta) {
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos || eq == 0)
+            throw Error(ErrorCode::InvalidArgument, "--meta '" + kv + "': expected key=value");
+        if (const std::size_t bad = first_invalid_utf8(kv); bad != kv.size())
+            throw Error(ErrorCode::InvalidArgument, "--meta: entry " + std::to_string(&kv - meta.data() + 1) +
+                                                        " is not valid UTF-8 (byte " + std::to_string(bad) +
+                                                        " of the argument); give UTF-8 text");
+    }
+}
+
+// The exit code of an agreed failure, as `tetlod` maps the same error.
+int exit_code_of(const mpi::RankFailure& f) { return f.internal ? 1 : exit_code_for(f.code); }
+
+int run(const Args& a, int rank, int size) {
+    check_meta(a.meta);
+    mpi::MpiConvertOptions o;
+    o.write.pad = a.pad;
+    o.write.zstd_level = a.level;
+    o.write.brick_log2 = a.brick_log2;
+    o.write.error_bits = a.error_bits;
+    o.write.memory_bytes = a.memory.empty() ? default_memory_budget() : cli::parse_byte_size(a.memory, "--memory");
+    // Recorded as `tetlod convert` writes it: the container is that one, byte for byte.
+    o.write.source_path = a.input;
+    o.write.converter = "tetlod convert";
+    o.read.axis_order = a.axis_order;
+    o.force = a.force;
+    for (const std::string& kv : a.meta) o.meta[kv.substr(0, kv.find('='))] = kv.substr(kv.find('=') + 1);
+    if (const char* f = std::getenv("TETLOD_MPI_TEST_FAIL_RANK")) o.fail_rank = std::atoi(f);
+
+    const double t0 = MPI_Wtime();
+    const mpi::MpiConvertResult r = mpi::convert_mpi(MPI_COMM_WORLD, a.input, a.output, o);
+    if (r.failure) {
+        if (rank == 0) {
+            const std::string where = r.failure->rank != 0 ? "rank " + std::to_string(r.failure->rank) + ": " : "";
+            std::cerr << "tetlod-mpi: " << (r.failure->internal ? "internal error: " : "error: ") << where
+                      << r.failure->message << "\n";
+        }
+        return exit_code_of(*r.failure);
+    }
+    if (rank == 0 && !a.quiet) {
+        std::ostringstream line;
+        line << "wrote " << a.output << ": " << r.summary.bytes << " bytes, HT k = " << r.summary.ht_k
+             << ", levels 0.." << r.summary.ht_max_level << ", " << size << (size == 1 ? " rank" : " ranks") << ", "
+             << MPI_Wtime() - t0 << " s\n";
+        std::cout << line.str();
+        if (a.verbose > 0) {
+            std::cerr << "rank  bytes read  bytes sent  bytes received  messages  read s\n";
+            for (std::size_t i = 0; i < r.traffic.size(); ++i) {
+                const auto& t = r.traffic[i];
+                char row[160];
+                std::snprintf(row, sizeof row, "%4zu %11llu %11llu %15llu %9llu %7.3f\n", i,
+                              (unsigned long long)t.bytes_read, (unsigned long long)t.bytes_sent,
+                              (unsigned long long)t.bytes_received, (unsigned long long)t.messages, t.read_seconds);
+                std::cerr << row;
+            }
+        }
+    }
+    return 0;
+}
+
+int main_mpi(int argc, char** argv, int rank, int size) {
+    CLI::App app{"tetlod-mpi: distributed conversion of HDF5 volumes to .tlod containers (run under mpirun)"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("tetlod-mpi ") + TETLOD_VERSION_STRING);
+    Args a;
+    app.add_flag("-q,--quiet", a.quiet, "Print only errors");
+    app.add_flag("-v,--verbose", a.verbose, "Print what each rank read and sent");
+    app.add_flag("-f,--force", a.force, "Replace an existing output");
+    app.footer("Exit codes: 0 ok, 2 bad usage, 3 I/O error or missing file/dataset, 4 bad input data.\n"
+               "Every rank exits with the same code; rank 0 prints the error.");
+    CLI::App* convert = app.add_subcommand(
+        "convert", "HDF5 dataset -> .tlod container (HT), byte for byte what `tetlod convert` writes");
+    convert->add_option("input", a.input, "Input FILE.h5:/dataset (FILE.h5 alone: its only dataset)")->required();
+    convert->add_option("output", a.output, "Output .tlod file (written atomically by rank 0)")->required();
+    convert->add_option("--axis-order", a.axis_order, "zyx (C order [z][y][x], default) or xyz (x slowest)")
+        ->check(CLI::IsMember({"zyx", "xyz"}));
+    convert->add_flag("--pad", a.pad, "Embed the data in the enclosing (2^k+1)^3 cube");
+    convert->add_option("--memory", a.memory, "Memory rank 0's encoder may use, e.g. 512M or 4G (default: a quarter of RAM)");
+    convert->add_option("--meta", a.meta, "User metadata key=value (repeatable)");
+    convert->add_option("--level", a.level, "zstd level of every section")->capture_default_str()->check(CLI::Range(1, 22));
+    convert->add_option("--brick-log2", a.brick_log2, "Bricks of cycle t span 2^(t+1+N) grid steps")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 16));
+    convert->add_option("--error-bits", a.error_bits, "Mantissa bits of stored error bounds")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 7));
+    convert->footer("Examples:\n"
+                    "  mpirun -n 4 tetlod-mpi convert scan.h5:/volume scan.tlod\n"
+                    "  SOURCE_DATE_EPOCH=0 mpirun -n 2 tetlod-mpi convert scan.h5:/volume scan.tlod  # reproducible");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        // Every rank parses the same arguments; rank 0 alone speaks.
+        if (rank != 0) return e.get_exit_code() == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);
+        std::cerr << "tetlod-mpi: error: " << e.what() << "\nRun 'tetlod-mpi convert --help' for usage.\n";
+        return 2;
+    }
+    try {
+        return run(a, rank, size);
+    } catch (const Error& e) {  // before any collective step (bad flags): the same on every rank
+        if (rank == 0) std::cerr << "tetlod-mpi: error: " << e.what() << "\n";
+        return exit_code_for(e.code());
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    // Serialized: the encoder may fetch planes from a worker thread, one at a time.
+    int provided = 0;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &provided);
+    int rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    const int code = main_mpi(argc, argv, rank, size);
+    MPI_Finalize();
+    return code;
+}
