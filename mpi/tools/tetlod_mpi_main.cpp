@@ -80,7 +80,8 @@ int run(const Args& a, int rank, int size) {
         line << "wrote " << a.output << ": " << r.summary.bytes << " bytes, HT k = " << r.summary.ht_k
              << ", levels 0.." << r.summary.ht_max_level << ", " << size << (size == 1 ? " rank" : " ranks") << ", "
              << MPI_Wtime() - t0 << " s\n";
-        std::cout << line.str();
+        // "-": the container goes to standard output, the report to stderr.
+        (a.output == "-" ? std::cerr : std::cout) << line.str();
         if (a.verbose > 0) {
             std::cerr << "rank  bytes read  bytes sent  bytes received  messages  read s\n";
             for (std::size_t i = 0; i < r.traffic.size(); ++i) {
