@@ -5,27 +5,19 @@
 #include <charconv>
 #include <cmath>
 
-#include "tetlod/core/error.hpp"
-
 namespace tetlod::cli {
 
-namespace {
-
-Error bad_size(const std::string& flag, const std::string& text, const std::string& why) {
-    return Error(ErrorCode::InvalidArgument, (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
-}
-
-}  // namespace
-
-std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
+std::optional<std::size_t> byte_size_from(const std::string& text, std::string& why) {
     // A number, then optionally K, M, G or T (powers of 1024, as zstd's
     // --memory), optionally followed by "B" or "iB".
     std::size_t n = 0;
     while (n < text.size() && (std::isdigit(static_cast<unsigned char>(text[n])) || text[n] == '.')) ++n;
     double v = 0.0;
     auto [p, ec] = std::from_chars(text.data(), text.data() + n, v);
-    if (n == 0 || ec != std::errc() || p != text.data() + n || !std::isfinite(v))
-        throw bad_size(flag, text, "expected a size such as 512M, 2G or 1073741824");
+    if (n == 0 || ec != std::errc() || p != text.data() + n || !std::isfinite(v)) {
+        why = "expected a size such as 512M, 2G or 1073741824";
+        return std::nullopt;
+    }
     std::string unit = text.substr(n);
     for (char& c : unit) c = char(std::toupper(static_cast<unsigned char>(c)));
     if (unit.size() >= 2 && unit.substr(unit.size() - 2) == "IB") unit.resize(unit.size() - 2);
@@ -35,9 +27,15 @@ std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
     else if (unit == "M") scale = 1024.0 * 1024;
     else if (unit == "G") scale = 1024.0 * 1024 * 1024;
     else if (unit == "T") scale = 1024.0 * 1024 * 1024 * 1024;
-    else if (!unit.empty() && unit != "B") throw bad_size(flag, text, "unknown unit '" + text.substr(n) + "' (K, M, G or T)");
+    else if (!unit.empty() && unit != "B") {
+        why = "unknown unit '" + text.substr(n) + "' (K, M, G or T)";
+        return std::nullopt;
+    }
     const double bytes = v * scale;
-    if (bytes < 1 || bytes > 1e18) throw bad_size(flag, text, "out of range");
+    if (bytes < 1 || bytes > 1e18) {
+        why = "out of range";
+        return std::nullopt;
+    }
     return std::size_t(bytes);
 }
 

@@ -12,6 +12,7 @@
 #include <limits>
 #include <vector>
 
+#include "byte_size.hpp"
 
 namespace tetlod::cli {
 
@@ -103,6 +104,13 @@ double parse_number(const std::string& text, const std::string& flag) {
     if (ec != std::errc() || p != end || text.empty() || !std::isfinite(v))
         throw bad(flag, text, "not a finite number");
     return v;
+}
+
+std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
+    std::string why;
+    const auto bytes = byte_size_from(text, why);
+    if (!bytes) throw bad(flag, text, why);
+    return *bytes;
 }
 
 Dims parse_dims(const std::string& text, const std::string& flag) {

@@ -11,7 +11,6 @@
 #include <string>
 #include <vector>
 
-#include "byte_size.hpp"
 #include "tetlod/tetlod.hpp"
 
 namespace CLI {
@@ -76,6 +75,8 @@ ValueType parse_dtype(const std::string& text, const std::string& flag);
 /// Inclusive index box x0,y0,z0,x1,y1,z1 with x0 <= x1, y0 <= y1, z0 <= z1.
 std::array<int64_t, 6> parse_box(const std::string& text, const std::string& flag);
 double parse_number(const std::string& text, const std::string& flag);
+/// "512M", "2G", "1.5GiB", "1073741824" -> bytes (K/M/G/T are powers of 1024).
+std::size_t parse_byte_size(const std::string& text, const std::string& flag);
 
 /// An error bound as typed: absolute ("0.5"), percent of the value range
 /// ("0.1%"), unbounded ("inf", "unbounded"), or negative for full resolution.

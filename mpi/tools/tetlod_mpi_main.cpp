@@ -19,6 +19,7 @@
 #include "byte_size.hpp"
 #include "exit_code.hpp"
 #include "mpi_convert.hpp"
+#include "tetlod/core/error.hpp"
 #include "tetlod/core/utf8.hpp"
 
 namespace {
@@ -56,7 +57,13 @@ int run(const Args& a, int rank, int size) {
     o.write.zstd_level = a.level;
     o.write.brick_log2 = a.brick_log2;
     o.write.error_bits = a.error_bits;
-    o.write.memory_bytes = a.memory.empty() ? default_memory_budget() : cli::parse_byte_size(a.memory, "--memory");
+    o.write.memory_bytes = default_memory_budget();
+    if (!a.memory.empty()) {
+        std::string why;
+        const auto bytes = cli::byte_size_from(a.memory, why);
+        if (!bytes) throw Error(ErrorCode::InvalidArgument, "--memory '" + a.memory + "': " + why);
+        o.write.memory_bytes = *bytes;
+    }
     // Recorded as `tetlod convert` writes it: the container is that one, byte for byte.
     o.write.source_path = a.input;
     o.write.converter = "tetlod convert";
