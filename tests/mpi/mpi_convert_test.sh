@@ -18,7 +18,8 @@ export OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
 rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
 
 fail() { echo "FAIL: $*"; exit 1; }
-run_mpi() { local n=$1; shift; "$mpirun" -n "$n" --oversubscribe "$tetlod_mpi" "$@"; }
+# --bind-to none: rank 0 encodes with threads (see tetlod-mpi's note on pinning).
+run_mpi() { local n=$1; shift; "$mpirun" -n "$n" --oversubscribe --bind-to none "$tetlod_mpi" "$@"; }
 if [ -n "${TETLOD_MPI_SANITIZED:-}" ]; then
     # Open MPI unloads its plugins before LeakSanitizer runs, so their one-time
     # allocations show up as leaks in "<unknown module>" that no suppression can
@@ -27,7 +28,7 @@ if [ -n "${TETLOD_MPI_SANITIZED:-}" ]; then
     echo "note: sanitized build: leak checking off for the MPI processes (Open MPI's unloaded plugins)"
     run_mpi() {
         local n=$1; shift
-        ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$mpirun" -n "$n" --oversubscribe \
+        ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$mpirun" -n "$n" --oversubscribe --bind-to none \
             -x ASAN_OPTIONS -x UBSAN_OPTIONS "$tetlod_mpi" "$@"
     }
 fi
