@@ -149,7 +149,7 @@ int main_mpi(int argc, char** argv, int rank, int size) {
         ->capture_default_str()
         ->check(CLI::Range(0, 7));
     convert->footer("Examples:\n"
-                    "  mpirun -n 4 tetlod-mpi convert scan.h5:/volume scan.tlod\n"
+                    "  mpirun -n 4 --bind-to none tetlod-mpi convert scan.h5:/volume scan.tlod   # rank 0 encodes with threads\n"
                     "  SOURCE_DATE_EPOCH=0 mpirun -n 2 tetlod-mpi convert scan.h5:/volume scan.tlod  # reproducible");
     try {
         app.parse(argc, argv);
