@@ -27,7 +27,11 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
     MPI_Comm_rank(comm, &rank);
     MPI_Comm_size(comm, &size);
     MpiConvertResult result;
-    const auto [file, dataset] = split_hdf5_location(input);
+    // Named copies, not a structured binding: clang 14 (the sanitized CI
+    // build) cannot capture bindings in the lambdas below.
+    const auto location = split_hdf5_location(input);
+    const std::string& file = location.first;
+    const std::string& dataset = location.second;
 
     // Rank 0 owns the output: the policy refuses an existing file (without
     // force) or the input itself before anything is read.
