@@ -1,5 +1,5 @@
 // MtModel: assembly and structural validation of stored parts, and the
-// per-survivor update lists (CSR by label) that extraction needs.
+// order extraction needs: updates grouped by survivor, sorted by label (CSR).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -13,6 +13,17 @@ namespace tetlod {
 namespace {
 [[noreturn]] void corrupt(const std::string& what) {
     throw Error(ErrorCode::CorruptData, "MT model: " + what);
+}
+
+/// Bits [from, from + count) of `src` ORed into `dst` at bit `to` (dst zeroed there).
+void copy_bits(const std::vector<uint64_t>& src, uint64_t from, std::vector<uint64_t>& dst, uint64_t to,
+               uint64_t count) {
+    while (count > 0) {
+        const uint64_t take = std::min<uint64_t>({count, 64 - (from & 63), 64 - (to & 63)});
+        const uint64_t mask = take == 64 ? ~uint64_t(0) : (uint64_t(1) << take) - 1;
+        dst[to >> 6] |= ((src[from >> 6] >> (from & 63)) & mask) << (to & 63);
+        from += take, to += take, count -= take;
+    }
 }
 }  // namespace
 
@@ -45,8 +56,9 @@ void MtModel::finalize() {
             corrupt("base tet not positively oriented");
         for (uint32_t v : t) is_base[v] = 1;
     }
-    std::vector<uint32_t> removed_by(n, mt::kNil);  // per grid point: the update inserting it
-    std::vector<uint32_t> count(n + 1, 0);
+    // Pass 1, in the given order: ranges, coverage, and the mask offsets of that order.
+    std::vector<uint8_t> inserted(n, 0);
+    csr_start_.assign(n + 1, 0);
     const uint64_t total_bits = uint64_t(mask_bits_.size()) * 64;
     uint64_t mask_end = 0;  // masks follow each other in the order of the updates
     mask_start_.clear();
@@ -61,22 +73,26 @@ void MtModel::finalize() {
         if ((k & 63) == 0) mask_start_.push_back(mask_end);
         if (u.star > total_bits - mask_end) corrupt("masks beyond the mask bits");
         mask_end += u.star;
-        if (removed_by[u.w] != mt::kNil) corrupt("grid point inserted twice");
+        if (inserted[u.w]) corrupt("grid point inserted twice");
         if (is_base[u.w]) corrupt("base vertex inserted by an update");
-        removed_by[u.w] = uint32_t(k);
-        ++count[u.s];
+        inserted[u.w] = 1;
+        ++csr_start_[u.s + 1];
         max_label_ = std::max(max_label_, u.label);
     }
-    uint64_t covered = 0;
-    for (uint64_t p = 0; p < n; ++p) covered += (is_base[p] || removed_by[p] != mt::kNil) ? 1 : 0;
-    if (covered != n) corrupt("some grid points are neither base vertices nor inserted");
-    csr_start_.assign(n + 1, 0);
-    for (uint64_t p = 0; p < n; ++p) csr_start_[p + 1] = csr_start_[p] + count[p];
-    csr_items_.assign(updates_.size(), 0);
-    std::vector<uint32_t> fill(csr_start_.begin(), csr_start_.end() - 1);
-    for (size_t k = 0; k < updates_.size(); ++k) csr_items_[fill[updates_[k].s]++] = uint32_t(k);
+    for (uint64_t p = 0; p < n; ++p)
+        if (!is_base[p] && !inserted[p]) corrupt("some grid points are neither base vertices nor inserted");
+    std::vector<uint8_t>().swap(is_base);
+    std::vector<uint8_t>().swap(inserted);
+    // The stored order: by survivor, then label. The updates of a survivor are then a
+    // range of updates_ (csr_start_), which spares a 4-byte index per update.
+    for (uint64_t p = 0; p < n; ++p) csr_start_[p + 1] += csr_start_[p];
+    std::vector<uint32_t> order(updates_.size());  // order[new position] = given position
+    {
+        std::vector<uint32_t> fill(csr_start_.begin(), csr_start_.end() - 1);
+        for (size_t k = 0; k < updates_.size(); ++k) order[fill[updates_[k].s]++] = uint32_t(k);
+    }
     for (uint64_t p = 0; p < n; ++p) {
-        auto b = csr_items_.begin() + csr_start_[p], e = csr_items_.begin() + csr_start_[p + 1];
+        auto b = order.begin() + csr_start_[p], e = order.begin() + csr_start_[p + 1];
         std::sort(b, e, [&](uint32_t a, uint32_t c) { return updates_[a].label < updates_[c].label; });
         for (auto it = b; it != e; ++it) {
             if (it + 1 != e && updates_[*it].label >= updates_[*(it + 1)].label)
@@ -85,13 +101,47 @@ void MtModel::finalize() {
                 corrupt("errors not monotone along a survivor");
         }
     }
+    // Masks in the new order (offsets of the given order still in mask_start_).
+    std::vector<uint64_t> masks((mask_end + 63) / 64, 0);
+    std::vector<uint64_t> starts;
+    starts.reserve(mask_start_.capacity());
+    uint64_t at = 0;
+    for (size_t j = 0; j < order.size(); ++j) {
+        if ((j & 63) == 0) starts.push_back(at);
+        const uint32_t star = updates_[order[j]].star;
+        copy_bits(mask_bits_, mask_offset(order[j]), masks, at, star);
+        at += star;
+    }
+    mask_bits_ = std::move(masks);
+    mask_start_ = std::move(starts);
+    if (!history_.empty()) {
+        // Collapse k (node n + k) now sits at a new position.
+        std::vector<uint32_t>& where = history_.front().update_of_node;
+        std::vector<uint32_t> new_pos(order.size());
+        for (size_t j = 0; j < order.size(); ++j) new_pos[order[j]] = uint32_t(j);
+        for (uint32_t& k : where) k = new_pos[k];
+    }
+    // Permute in place, cycle by cycle (order[j] = j marks a placed slot).
+    for (size_t i = 0; i < order.size(); ++i) {
+        if (order[i] == i) continue;
+        const MtUpdate first = updates_[i];
+        size_t j = i;
+        while (order[j] != i) {
+            const size_t k = order[j];
+            updates_[j] = updates_[k];
+            order[j] = uint32_t(j);
+            j = k;
+        }
+        updates_[j] = first;
+        order[j] = uint32_t(j);
+    }
+    std::vector<uint32_t>().swap(order);
     // The node an update inserts at w must be younger than the update.
-    for (size_t k = 0; k < updates_.size(); ++k) {
-        const uint32_t w = updates_[k].w;
-        if (csr_start_[w + 1] > csr_start_[w]) {
-            const MtUpdate& last = updates_[csr_items_[csr_start_[w + 1] - 1]];
-            if (last.label >= updates_[k].label) corrupt("child label not below its parent");
-            if (last.error > updates_[k].error) corrupt("errors not monotone up the forest");
+    for (const MtUpdate& u : updates_) {
+        if (csr_start_[u.w + 1] > csr_start_[u.w]) {
+            const MtUpdate& last = updates_[csr_start_[u.w + 1] - 1];
+            if (last.label >= u.label) corrupt("child label not below its parent");
+            if (last.error > u.error) corrupt("errors not monotone up the forest");
         }
     }
     range_ = field_.range();
@@ -100,7 +150,7 @@ void MtModel::finalize() {
 std::size_t MtModel::memory_bytes() const {
     auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
     std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) + bytes(mask_start_) +
-                    bytes(csr_start_) + bytes(csr_items_) + bytes(history_);
+                    bytes(csr_start_) + bytes(history_);
     for (const MtHistory& h : history_) {
         for (const auto* lists : {&h.before, &h.after}) {
             r += bytes(*lists);

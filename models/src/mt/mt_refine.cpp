@@ -46,11 +46,11 @@ struct MtRefiner {
           bounds(detail::query_bounds(query)) {}
 
     uint32_t current_update(uint32_t p) const {
-        return m.csr_items_[m.csr_start_[p] + pos[p] - 1];
+        return m.csr_start_[p] + pos[p] - 1;
     }
     void set_node(uint32_t p, uint32_t npos) {
         pos[p] = npos;
-        label[p] = npos == 0 ? 0 : m.updates_[m.csr_items_[m.csr_start_[p] + npos - 1]].label;
+        label[p] = npos == 0 ? 0 : m.updates_[m.csr_start_[p] + npos - 1].label;
     }
     void link_corner(uint32_t v, uint32_t c) {
         tnext[c] = vhead[v];

@@ -140,7 +140,7 @@ std::set<KeyTet> oracle_extract(const MtModel& m, const Volume& vol, const LodQu
     const MtHistory& h = *m.history();
     const uint32_t n = uint32_t(vol.count());
     const auto& ups = m.updates();
-    auto grid_of = [&](uint32_t node) { return node < n ? node : ups[node - n].s; };
+    auto grid_of = [&](uint32_t node) { return node < n ? node : ups[h.update_of_node[node - n]].s; };
     auto coord = [&](uint32_t g) {
         return std::array<int32_t, 3>{int32_t(g % vol.dims.x), int32_t(g / vol.dims.x % vol.dims.y),
                                       int32_t(g / (vol.dims.x * vol.dims.y))};
@@ -171,7 +171,7 @@ std::set<KeyTet> oracle_extract(const MtModel& m, const Volume& vol, const LodQu
         auto it = remover.find(t);
         if (it == remover.end()) return false;
         k = it->second;
-        const double err = ups[k].error;
+        const double err = ups[h.update_of_node[k]].error;
         bool in = true;
         if (!q.full && q.has_region()) {
             const TetPts p = pts(t);

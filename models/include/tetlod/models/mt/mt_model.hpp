@@ -77,7 +77,7 @@ struct MtHistory {
     std::vector<std::vector<Tet>> before;  // per collapse: star(w) U star(s) (the split creates these)
     std::vector<std::vector<Tet>> after;   // per collapse: new star(s) (the split removes these)
     std::vector<Tet> base;                 // final mesh in node ids
-    std::vector<uint32_t> update_of_node;  // (n + k) -> k, for convenience: size = collapses
+    std::vector<uint32_t> update_of_node;  // node n + k (collapse k) -> its index in MtModel::updates()
 };
 
 struct MtExtractStats {
@@ -107,7 +107,8 @@ public:
     const Dims& dims() const { return field_.dims; }
     /// The coarsest mesh, grid indices, positively oriented.
     const std::vector<std::array<uint32_t, 4>>& base_tets() const { return base_; }
-    /// Updates in creation (collapse) order after build; in decode order otherwise.
+    /// Updates grouped by survivor (ascending grid index), each group sorted by label:
+    /// the same order after build and after decoding (updates_at gives a group).
     const std::vector<MtUpdate>& updates() const { return updates_; }
     const std::vector<uint64_t>& mask_bits() const { return mask_bits_; }
     /// First bit of the mask of updates()[k] in mask_bits(): a sampled prefix sum of the
@@ -137,20 +138,22 @@ public:
     /// base mesh, updates, masks, per-point update lists, history) and the object.
     std::size_t memory_bytes() const;
 
-    /// Per survivor grid point, its updates sorted by label (CSR): rebuilt on load.
-    std::span<const uint32_t> updates_at(uint32_t p) const {
-        return {csr_items_.data() + csr_start_[p], csr_items_.data() + csr_start_[p + 1]};
+    /// The updates whose survivor is grid point p, sorted by label: updates()[k] for k in
+    /// [first_update_at(p), first_update_at(p + 1)).
+    std::span<const MtUpdate> updates_at(uint32_t p) const {
+        return {updates_.data() + csr_start_[p], updates_.data() + csr_start_[p + 1]};
     }
+    uint32_t first_update_at(uint32_t p) const { return csr_start_[p]; }
 
 private:
-    void finalize();  // CSR, max label, range; validates
+    void finalize();  // sorts updates and masks by (survivor, label), CSR, max label, range; validates
 
     Volume field_;
     std::vector<std::array<uint32_t, 4>> base_;
     std::vector<MtUpdate> updates_;
     std::vector<uint64_t> mask_bits_;
     std::vector<uint64_t> mask_start_;  // mask offset of updates_[64 j]
-    std::vector<uint32_t> csr_start_, csr_items_;
+    std::vector<uint32_t> csr_start_;   // updates_ of survivor p: [csr_start_[p], csr_start_[p + 1])
     uint32_t max_label_ = 0;
     std::array<double, 2> range_{0, 0};
     std::vector<MtHistory> history_;  // 0 or 1 element
