@@ -234,14 +234,23 @@ int main(int argc, char** argv) {
             const double span = r[1] - r[0];
             std::unique_ptr<HtModel> ht;
             if (!no_ht) ht = std::make_unique<HtModel>(HtModel::build(v));
-            std::printf("    %-28s %10s %10s %7s %9s\n", "query", "HT_tets", "MT_tets", "MT/HT", "MT_ratio");
+            std::printf("    %-28s %10s %10s %7s %9s %8s %8s\n", "query", "HT_tets", "MT_tets", "MT/HT", "MT_ratio",
+                        "MT_s", "MT_MB");
+            // MT_s and MT_MB: the MT extraction's time and resident high-water mark above
+            // the resident size before it (the query's working memory and its mesh).
             auto row = [&](const std::string& label, const LodQuery& q) {
+                ::malloc_trim(0);
+                reset_peak();
+                const double rss0 = std::max(0.0, status_mb("VmRSS:"));
+                const double t1 = now();
                 const TetMesh m = mt.extract(q);
+                const double mt_s = now() - t1;
+                const double mt_mb = peak_mb() - rss0;
                 const size_t h = ht ? ht->extract(q).tet_count() : 0;
-                std::printf("    %-28s %10zu %10zu %7.3f %9.3f\n", label.c_str(), h, m.tet_count(),
-                            h ? double(m.tet_count()) / double(h) : 0.0, mean_ratio(m));
+                std::printf("    %-28s %10zu %10zu %7.3f %9.3f %8.3f %8.1f\n", label.c_str(), h, m.tet_count(),
+                            h ? double(m.tet_count()) / double(h) : 0.0, mean_ratio(m), mt_s, mt_mb);
             };
-            for (double f : {0.0, 0.01, 0.03, 0.1}) {
+            for (double f : {0.0, 0.01, 0.03, 0.1, 0.3}) {
                 LodQuery q;
                 q.error_in = f * span;
                 char label[64];
@@ -253,6 +262,12 @@ int main(int argc, char** argv) {
             box.error_in = 0.0, box.error_out = 0.1 * span;
             box.box = std::array<int64_t, 6>{D.x / 4, D.y / 4, D.z / 4, D.x / 2, D.y / 2, D.z / 2};
             row("box 0 / 10%", box);
+            // A small region of interest on a coarse rest: the query touches little of the volume.
+            LodQuery small;
+            small.error_in = 0.0, small.error_out = span;
+            small.box = std::array<int64_t, 6>{D.x / 2, D.y / 2, D.z / 2, D.x / 2 + D.x / 16, D.y / 2 + D.y / 16,
+                                               D.z / 2 + D.z / 16};
+            row("box 1/16 0 / 100%", small);
             LodQuery iso;
             iso.error_in = 0.0, iso.error_out = 0.1 * span;
             iso.isovalues = {r[0] + 0.4 * span};

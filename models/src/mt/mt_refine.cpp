@@ -11,6 +11,7 @@
 #include <string>
 
 #include "../query/lod_query_region.hpp"
+#include "mt_slot_map.hpp"
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/core/error.hpp"
@@ -27,64 +28,79 @@ namespace {
 }  // namespace
 
 struct MtRefiner {
+    /// A grid point that is a vertex of the current mesh. Only these have state, so a
+    /// query's memory follows the mesh it visits, not the volume (docs/mt.md §6).
+    struct Vertex {
+        uint32_t grid;            // grid index
+        uint32_t head = kNil;     // first corner (4 * tet + slot) of its corner chain
+        uint32_t pos = 0;         // updates of the grid point applied to it, counted from the root
+        uint32_t label = 0;       // label of its current node (0: a leaf)
+        uint32_t wanted = 0;      // label at which a bound failure asked for its split
+    };
+
     const MtModel& m;
     const LodQuery& q;
     mt::Grid grid;
     uint32_t n;
     detail::QueryBounds bounds;
 
-    std::vector<std::array<uint32_t, 4>> tv;
-    std::vector<uint32_t> tnext;
-    std::vector<uint8_t> alive;
-    std::vector<uint32_t> free_tets;
-    std::vector<uint32_t> vhead, pos, label, wanted;
-    std::priority_queue<std::pair<uint32_t, uint32_t>> heap;  // (label, grid point)
+    std::vector<Vertex> verts;
+    mt::SlotMap slot_of;                       // grid index -> index in verts
+    std::vector<std::array<uint32_t, 4>> tv;   // tets, grid indices (geometry, star order)
+    std::vector<std::array<uint32_t, 4>> ts;   // the same tets, vertex slots (state)
+    std::vector<uint32_t> tnext;               // per corner: next corner of the same vertex
+    // (label, grid index, slot): ties between equal labels break by grid index.
+    std::priority_queue<std::array<uint32_t, 3>> heap;
     MtExtractStats st;
 
     MtRefiner(const MtModel& model, const LodQuery& query)
         : m(model), q(query), grid(model.dims()), n(uint32_t(model.dims().count())),
-          bounds(detail::query_bounds(query)) {}
+          bounds(detail::query_bounds(query)), slot_of(4 * model.base_tets().size()) {}
 
-    uint32_t current_update(uint32_t p) const {
-        return m.csr_start_[p] + pos[p] - 1;
+    uint32_t updates_of(uint32_t g) const { return m.csr_start_[g + 1] - m.csr_start_[g]; }
+    uint32_t current_update(uint32_t v) const { return m.csr_start_[verts[v].grid] + verts[v].pos - 1; }
+    void set_node(uint32_t v, uint32_t npos) {
+        Vertex& x = verts[v];
+        x.pos = npos;
+        x.label = npos == 0 ? 0 : m.updates_[m.csr_start_[x.grid] + npos - 1].label;
     }
-    void set_node(uint32_t p, uint32_t npos) {
-        pos[p] = npos;
-        label[p] = npos == 0 ? 0 : m.updates_[m.csr_start_[p] + npos - 1].label;
+    uint32_t add_vertex(uint32_t g) {
+        const uint32_t v = uint32_t(verts.size());
+        verts.push_back(Vertex{g});
+        slot_of.insert(g, v);
+        set_node(v, updates_of(g));
+        return v;
+    }
+    uint32_t present(uint32_t g) const {
+        const uint32_t v = slot_of.find(g);
+        if (v == mt::SlotMap::kAbsent) corrupt("a tet corner is not a vertex");
+        return v;
     }
     void link_corner(uint32_t v, uint32_t c) {
-        tnext[c] = vhead[v];
-        vhead[v] = c;
+        tnext[c] = verts[v].head;
+        verts[v].head = c;
     }
-    uint32_t new_tet(const std::array<uint32_t, 4>& t) {
-        uint32_t id;
-        if (!free_tets.empty()) {
-            id = free_tets.back();
-            free_tets.pop_back();
-            tv[id] = t;
-            alive[id] = 1;
-        } else {
-            id = uint32_t(tv.size());
-            if (tv.size() >= 8 * size_t(n) + 64) corrupt("too many tets");
-            tv.push_back(t);
-            alive.push_back(1);
-            tnext.insert(tnext.end(), 4, kNil);
-        }
+    uint32_t new_tet(const std::array<uint32_t, 4>& t, const std::array<uint32_t, 4>& slots) {
+        if (tv.size() >= 8 * size_t(n) + 64) corrupt("too many tets");
+        const uint32_t id = uint32_t(tv.size());
+        tv.push_back(t);
+        ts.push_back(slots);
+        tnext.insert(tnext.end(), 4, kNil);
         return id;
     }
     std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
         return {grid.coord(t[0]), grid.coord(t[1]), grid.coord(t[2]), grid.coord(t[3])};
     }
 
-    /// Creator (vertex of largest label) of a tet; kNil for a reference tet.
+    /// Creator (vertex of largest label) of a tet given by slots; kNil for a reference tet.
     uint32_t creator(const std::array<uint32_t, 4>& t) const {
         uint32_t best = t[0];
         bool tie = false;
         for (int i = 1; i < 4; ++i) {
-            if (label[t[i]] > label[best]) best = t[i], tie = false;
-            else if (label[t[i]] == label[best]) tie = true;
+            if (verts[t[i]].label > verts[best].label) best = t[i], tie = false;
+            else if (verts[t[i]].label == verts[best].label) tie = true;
         }
-        if (label[best] == 0) return kNil;
+        if (verts[best].label == 0) return kNil;
         if (tie) corrupt("two vertices of a tet share the largest label");
         return best;
     }
@@ -94,14 +110,16 @@ struct MtRefiner {
         return detail::query_bound(q, bounds, pts_of(t), [&](int i) { return m.field_.value(t[i]); }, err);
     }
 
+    void want_split(uint32_t v) { heap.push({verts[v].label, verts[v].grid, v}); }
+
     void check(uint32_t t) {
         ++st.visited_tets;
-        const uint32_t c = creator(tv[t]);
+        const uint32_t c = creator(ts[t]);
         if (c == kNil) return;
         const double err = m.updates_[current_update(c)].error;
         if (err > bound(tv[t], err)) {
-            wanted[c] = label[c];
-            heap.push({label[c], c});
+            verts[c].wanted = verts[c].label;
+            want_split(c);
         }
     }
 
@@ -115,12 +133,13 @@ struct MtRefiner {
     std::vector<FaceUse> faces;
     std::vector<uint32_t> touched;
 
-    void split(uint32_t s) {
-        const uint32_t k = current_update(s);
+    void split(uint32_t sv) {
+        const uint32_t s = verts[sv].grid;
+        const uint32_t k = current_update(sv);
         const MtUpdate& u = m.updates_[k];
         if (u.s != s) corrupt("survivor mismatch");
         const uint32_t w = u.w;
-        if (vhead[w] != kNil) corrupt("inserted point already present");
+        if (slot_of.find(w) != mt::SlotMap::kAbsent) corrupt("inserted point already present");
         if (star.size() != u.star) corrupt("star size differs from the stored one");
         const Pt ps = grid.coord(s), pw = grid.coord(w);
         mt::star_order(star, s, ps, pw, grid, [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; },
@@ -154,7 +173,8 @@ struct MtRefiner {
             i = j;
         }
         // Rewire: w-side tets move to w; chains of s and w are rebuilt.
-        vhead[s] = kNil;
+        const uint32_t wv = add_vertex(w);
+        verts[sv].head = kNil;
         touched.clear();
         for (size_t i = 0; i < star.size(); ++i) {
             const uint32_t t = star[i];
@@ -162,45 +182,44 @@ struct MtRefiner {
             while (tv[t][slot] != s) ++slot;
             if (side[i]) {
                 tv[t][slot] = w;
+                ts[t][slot] = wv;
                 const auto p = pts_of(tv[t]);
                 if (mt::orient(p[0], p[1], p[2], p[3]) <= 0) corrupt("split inverts a tet");
-                link_corner(w, 4 * t + slot);
+                link_corner(wv, 4 * t + slot);
             } else {
-                link_corner(s, 4 * t + slot);
+                link_corner(sv, 4 * t + slot);
             }
             touched.push_back(t);
         }
         for (const auto& ab : edge_tets) {
             std::array<uint32_t, 4> t{s, w, ab[0], ab[1]};
+            std::array<uint32_t, 4> slots{sv, wv, present(ab[0]), present(ab[1])};
             const int64_t o = mt::orient(ps, pw, grid.coord(ab[0]), grid.coord(ab[1]));
             if (o == 0) corrupt("flat edge tet");
-            if (o < 0) std::swap(t[2], t[3]);
-            const uint32_t id = new_tet(t);
-            for (int j = 0; j < 4; ++j) link_corner(t[j], 4 * id + j);
+            if (o < 0) std::swap(t[2], t[3]), std::swap(slots[2], slots[3]);
+            const uint32_t id = new_tet(t, slots);
+            for (int j = 0; j < 4; ++j) link_corner(slots[j], 4 * id + j);
             touched.push_back(id);
         }
         st.tets_removed += star.size();
         st.tets_inserted += star.size() + edge_tets.size();
         ++st.splits;
-        if (wanted[s] != label[s]) ++st.forced_splits;
-        set_node(s, pos[s] - 1);
-        set_node(w, m.csr_start_[w + 1] - m.csr_start_[w]);
-        if (label[w] >= u.label || label[s] >= u.label) corrupt("child label not below parent");
+        if (verts[sv].wanted != verts[sv].label) ++st.forced_splits;
+        set_node(sv, verts[sv].pos - 1);
+        if (verts[wv].label >= u.label || verts[sv].label >= u.label) corrupt("child label not below parent");
         for (uint32_t t : touched) check(t);
     }
 
     TetMesh run() {
-        vhead.assign(n, kNil);
-        pos.assign(n, 0);
-        label.assign(n, 0);
-        wanted.assign(n, 0);
         tv = m.base_;
-        alive.assign(tv.size(), 1);
+        ts.resize(tv.size());
         tnext.assign(4 * tv.size(), kNil);
         for (uint32_t t = 0; t < tv.size(); ++t)
             for (int j = 0; j < 4; ++j) {
-                const uint32_t v = tv[t][j];
-                if (vhead[v] == kNil) set_node(v, m.csr_start_[v + 1] - m.csr_start_[v]);
+                const uint32_t g = tv[t][j];
+                uint32_t v = slot_of.find(g);
+                if (v == mt::SlotMap::kAbsent) v = add_vertex(g);
+                ts[t][j] = v;
                 link_corner(v, 4 * t + j);
             }
         for (uint32_t t = 0; t < tv.size(); ++t) check(t);
@@ -208,23 +227,23 @@ struct MtRefiner {
         const uint64_t max_pops = 64 * (uint64_t(m.updates_.size()) + 16) * 8;
         while (!heap.empty()) {
             if (++pops > max_pops) corrupt("refinement does not terminate");
-            const auto [lab, p] = heap.top();
+            const auto [lab, g, p] = heap.top();
             heap.pop();
-            if (vhead[p] == kNil || label[p] != lab || lab == 0) continue;
+            if (verts[p].head == kNil || verts[p].label != lab || lab == 0) continue;
             star.clear();
             bool blocked = false;
-            for (uint32_t c = vhead[p]; c != kNil; c = tnext[c]) {
+            for (uint32_t c = verts[p].head; c != kNil; c = tnext[c]) {
                 const uint32_t t = c >> 2;
                 star.push_back(t);
-                const uint32_t cr = creator(tv[t]);
+                const uint32_t cr = creator(ts[t]);
                 if (cr != p) {
-                    if (cr == kNil || label[cr] <= lab) corrupt("blocked by a lower label");
-                    heap.push({label[cr], cr});
+                    if (cr == kNil || verts[cr].label <= lab) corrupt("blocked by a lower label");
+                    want_split(cr);
                     blocked = true;
                 }
             }
             if (blocked) {
-                heap.push({lab, p});
+                heap.push({lab, g, p});
                 continue;
             }
             split(p);
@@ -238,21 +257,31 @@ struct MtRefiner {
         mesh.geometry.origin = m.field_.origin;
         mesh.field_name = m.field_.field_name;
         mesh.value_type = m.field_.type;
-        std::vector<uint32_t> vid(n, kNil);
-        // Vertices in grid order (deterministic and cache friendly).
-        for (uint32_t p = 0; p < n; ++p)
-            if (vhead[p] != kNil) {
-                vid[p] = uint32_t(mesh.points.size());
-                mesh.points.push_back(grid.coord(p));
-                mesh.values.push_back(m.field_.value(p));
-            }
+        // Vertices in grid order (deterministic and cache friendly). A vertex left
+        // without tets (only in an inconsistent model) is not output.
+        std::vector<uint32_t> by_grid;
+        by_grid.reserve(verts.size());
+        for (uint32_t v = 0; v < verts.size(); ++v)
+            if (verts[v].head != kNil) by_grid.push_back(v);
+        std::sort(by_grid.begin(), by_grid.end(),
+                  [&](uint32_t a, uint32_t b) { return verts[a].grid < verts[b].grid; });
+        std::vector<uint32_t> vid(verts.size(), kNil);
+        mesh.points.reserve(by_grid.size());
+        mesh.values.reserve(by_grid.size());
+        for (uint32_t v : by_grid) {
+            vid[v] = uint32_t(mesh.points.size());
+            mesh.points.push_back(grid.coord(verts[v].grid));
+            mesh.values.push_back(m.field_.value(verts[v].grid));
+        }
+        mesh.tets.reserve(tv.size());
+        mesh.level.reserve(tv.size());
+        mesh.error.reserve(tv.size());
         for (uint32_t t = 0; t < tv.size(); ++t) {
-            if (!alive[t]) continue;
-            const auto& v = tv[t];
+            const auto& v = ts[t];
             mesh.tets.push_back({vid[v[0]], vid[v[1]], vid[v[2]], vid[v[3]]});
             const uint32_t c = creator(v);
             const double e = c == kNil ? 0.0 : m.updates_[current_update(c)].error;
-            const uint32_t lv = c == kNil ? m.max_label_ : m.max_label_ - label[c];
+            const uint32_t lv = c == kNil ? m.max_label_ : m.max_label_ - verts[c].label;
             mesh.level.push_back(uint8_t(std::min<uint32_t>(lv, 255)));
             mesh.error.push_back(float(e));
             st.max_error = std::max(st.max_error, e);
