@@ -10,7 +10,7 @@
 // not covered).
 //
 // Usage: bench_mt [DATA_DIR] [--only NAME] [--big] [--no-ht] [--no-vtk] [--shape-cap R]
-//                 [--threads T] [--brick-cells B] [--build-only] [--generated N]
+//                 [--threads T] [--brick-cells B] [--pass-cap F] [--build-only] [--generated N]
 //   --big adds bucky 128^3 (with its VTK peer); --no-vtk skips the peer (it runs on
 //   bucky 32^3, head_mr, neghip, and bucky 128^3 with --big); --shape-cap refuses
 //   collapses creating tets with ratio > R; --threads / --brick-cells set
@@ -191,6 +191,7 @@ int main(int argc, char** argv) {
         else if (a == "--generated" && i + 1 < argc) generated = std::atoll(argv[++i]);
         else if (a == "--threads" && i + 1 < argc) bopt.threads = std::atoi(argv[++i]);
         else if (a == "--brick-cells" && i + 1 < argc) bopt.brick_cells = std::atoi(argv[++i]);
+        else if (a == "--pass-cap" && i + 1 < argc) bopt.pass_error_cap = std::atof(argv[++i]);
         else if (a == "--shape-cap" && i + 1 < argc) bopt.max_shape_ratio = std::atof(argv[++i]);
         else dir = a;
     }

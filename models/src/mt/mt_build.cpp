@@ -11,6 +11,7 @@
 // threads. With one brick (the volume has at most brick_cells cells per axis, or
 // brick_cells = 0) the build is the single global decimation of earlier versions.
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -52,6 +53,12 @@ void release_free_heap() {
 #endif
 }
 
+/// Error cap of pass `pass` of `passes` (never the last, which has none): `top` of the
+/// value range for the last-but-one pass, divided by 8 for each pass before it.
+double pass_error_cap(int pass, int passes, double range_span, double top) {
+    return range_span * top * std::pow(8.0, -(passes - 2 - pass));
+}
+
 }  // namespace
 
 MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
@@ -62,6 +69,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         volume.count() >= (int64_t(1) << 31))
         throw Error(ErrorCode::TooLarge, "MT: volume too large for the in-core builder");
     if (options.brick_cells < 0) throw Error(ErrorCode::InvalidArgument, "MT: negative brick size");
+    if (!(options.pass_error_cap >= 0))
+        throw Error(ErrorCode::InvalidArgument, "MT: the pass error cap must be >= 0 (+inf: none)");
     MtModel m;
     m.field_ = std::move(volume);
     const Volume& vol = m.field_;
@@ -99,6 +108,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         }
         passes.push_back(std::move(next));
     }
+    const std::array<double, 2> value_range = vol.range();
+    const double range_span = value_range[1] - value_range[0];
     std::array<int64_t, 3> prev_count{0, 0, 0};
     std::vector<mt::BrickMesh> prev;
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
@@ -129,6 +140,15 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                     for (int64_t x = 2 * at[0]; x < std::min(2 * at[0] + 2, prev_count[0]); ++x)
                         inputs[b].push_back(&prev[size_t((z * prev_count[1] + y) * prev_count[0] + x)]);
         }
+        // Every pass but the last stops at an error cap growing with the bricks, so the
+        // collapses of the whole volume happen roughly in the order of their errors, as in
+        // one greedy decimation: a brick decimated to the end would leave its frozen border
+        // fine below coarse interiors, and every coarse LOD would then carry those borders
+        // (their nodes get the largest labels, so the splits of the interiors force them).
+        MtBuildOptions pass_options = options;
+        if (pass + 1 < int(passes.size()))
+            pass_options.max_error = std::min(
+                options.max_error, pass_error_cap(pass, int(passes.size()), range_span, options.pass_error_cap));
         const auto t0 = std::chrono::steady_clock::now();
         std::atomic<int> in_flight{0}, most_in_flight{0};  // statistics only
         std::vector<mt::BrickResult> results(bricks);
@@ -137,7 +157,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 const int now = ++in_flight;
                 for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
                 }
-                results[b] = mt::decimate_brick(vol, options, boxes[b], inputs[b], nodes);
+                results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes);
                 --in_flight;
                 release_free_heap();
                 progress.brick_done(pass, boxes[b]);

@@ -49,6 +49,12 @@ struct MtBuildOptions {
     /// "Bricks"); each further pass doubles it. 0: one brick, the whole volume. The
     /// model depends on it (not on `threads`).
     int brick_cells = 32;
+    /// Error cap of the bricked build's last-but-one pass, as a fraction of the value
+    /// range; each earlier pass stops at 1/8 of the next one's cap and the last pass
+    /// has none, so collapses happen roughly in error order across bricks (docs/mt.md
+    /// §2, "Error caps"). +inf: every brick decimates to the end, which is faster but
+    /// leaves each pass's brick borders fine in every coarser LOD. The model depends on it.
+    double pass_error_cap = 0.03;
     /// Called as (done, total) while building: first (0, total), then as each brick
     /// completes, last with done == total. Units: grid points as they become free to
     /// collapse, weighted by 3^pass (a collapse costs about three times more per pass;
