@@ -3,7 +3,11 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <memory>
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include "tetlod/core/output_policy.hpp"
 
@@ -62,48 +66,160 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
     result.header = source->header();
     for (const auto& [k, v] : o.meta) result.header.metadata[k] = v;
 
-    // C: each rank reads its slab (collective hyperslab reads), then every
-    // rank closes the file at this same point (closing is collective too).
-    const SlabPartition partition{result.header.dims.z, size};
+    // The planes of the data box B (the encoder's planes, more than the
+    // volume's when padding) are cut into slabs, one per rank.
+    const HtDomain domain = HtDomain::for_dims(result.header.dims, o.write.pad);
+    const SlabPartition partition{int64_t(domain.box_max[2]) + 1, size};
+    const int64_t za = partition.begin(rank), zb = partition.end(rank) - 1;
+    // The encoder's own messages (a NaN sample, say) name a position, not the
+    // file: say which conversion it was.
+    const auto name_conversion = [&](std::optional<RankFailure>& f) {
+        if (f && f->message.find(file) == std::string::npos && f->message.find(output) == std::string::npos)
+            f->message = "'" + input + "': " + f->message;
+    };
+    const auto injected = [&](const char* phase, const std::string& what) {
+        if (rank == o.fail_rank && o.fail_phase == phase)
+            throw Error(ErrorCode::IoError, "'" + file + ":" + dataset + "': " + what +
+                                                " (failure injected by TETLOD_MPI_TEST_FAIL_RANK)");
+    };
+
+    // C: each rank reads the source planes its slab needs (collective
+    // hyperslab reads), then every rank closes the file at this same point
+    // (closing is collective too).
     SlabTraffic traffic;
     LocalSlab slab;
     auto failure = run_local(
         [&] {
-            slab = read_local_slab(*source, partition, rank, traffic);
-            if (rank == o.fail_rank)
-                throw Error(ErrorCode::IoError, "'" + file + ":" + dataset + "': could not read planes " + std::to_string(slab.z0) + ".." +
-                                                    std::to_string(slab.z0 + slab.planes - 1) +
-                                                    " (failure injected by TETLOD_MPI_TEST_FAIL_RANK)");
+            slab = read_local_slab(*source, domain, partition, rank, traffic);
+            injected("read", "could not read planes " + std::to_string(slab.z0) + ".." +
+                                 std::to_string(slab.z0 + slab.planes - 1));
         },
         rank);
     auto closing = run_local([&] { source.reset(); }, rank);
     result.failure = agree(comm, failure ? failure : closing);
     if (result.failure) return result;
 
-    // D: rank 0 encodes with the serial writer, fetching planes as it asks;
-    // the others serve them until rank 0 says stop (also after a failure).
+    // D: the first pass on every rank over its planes (range, finiteness,
+    // coarse lattice); a non-finite sample fails the lowest rank holding one,
+    // whose message names the first such sample, as the serial scan's does.
+    LocalSlabPlanes local(result.header, slab);
+    HtScanPart scan;
+    result.failure = run_phase(comm, [&] {
+        const double t = MPI_Wtime();
+        scan = ht_scan_planes(local, o.write.pad, za, zb);
+        traffic.scan_seconds = MPI_Wtime() - t;
+        injected("scan", "could not scan planes " + std::to_string(za) + ".." + std::to_string(zb));
+    });
+    name_conversion(result.failure);
+    if (result.failure) return result;
+    // Coarse points come from one rank each (the others hold zero bytes), so
+    // OR combines them; the extremes are folded in rank order (plane order).
+    MPI_Allreduce(MPI_IN_PLACE, scan.coarse.data(), int(scan.coarse.size()), MPI_BYTE, MPI_BOR, comm);
+    {
+        const double mine[3] = {scan.any ? 1.0 : 0.0, scan.range[0], scan.range[1]};
+        std::vector<double> all(std::size_t(3) * std::size_t(size));
+        MPI_Allgather(mine, 3, MPI_DOUBLE, all.data(), 3, MPI_DOUBLE, comm);
+        HtScanPart total;
+        total.coarse = scan.coarse;
+        for (int r = 0; r < size; ++r) {
+            HtScanPart part;
+            part.any = all[std::size_t(r) * 3] != 0;
+            part.range = {all[std::size_t(r) * 3 + 1], all[std::size_t(r) * 3 + 2]};
+            part.coarse.assign(total.coarse.size(), std::byte{0});
+            ht_merge_scan(total, part);
+        }
+        scan = std::move(total);
+    }
+    traffic.bytes_sent += scan.coarse.size() + 3 * sizeof(double);
+
+    // E: every rank computes the errors of the diamonds centred in its
+    // planes; the large diamonds' partial maxima are gathered by every rank
+    // and merged (a maximum of maxima: exact in any order), then finished.
+    std::unique_ptr<HtRangeErrors> errors;
+    result.failure = run_phase(comm, [&] {
+        errors = std::make_unique<HtRangeErrors>(local, o.write.pad, scan.range, scan.coarse, za, zb);
+        const double t = MPI_Wtime();
+        errors->compute();
+        traffic.error_seconds = MPI_Wtime() - t;
+        injected("errors", "could not compute the errors of planes " + std::to_string(za) + ".." + std::to_string(zb));
+    });
+    if (result.failure) return result;
+    {
+        const std::vector<std::byte> mine = errors->partial_maxima();
+        std::vector<std::byte> all(mine.size() * std::size_t(size));
+        MPI_Allgather(mine.data(), int(mine.size()), MPI_BYTE, all.data(), int(mine.size()), MPI_BYTE, comm);
+        result.failure = run_phase(comm, [&] {
+            for (int r = 0; r < size; ++r)
+                if (r != rank) errors->merge_partial_maxima(all.data() + std::size_t(r) * mine.size(), mine.size());
+            errors->finish();
+        });
+        traffic.bytes_sent += mine.size();
+        traffic.bytes_received += all.size() - mine.size();
+        if (result.failure) return result;
+    }
+
+    // F: rank 0 encodes with the serial writer, fed with the errors (its own,
+    // the others' by request) and the planes (read once); the others serve
+    // them until rank 0 says stop (also after a failure).
+    // Rank 0 writes beside the output and renames only once every rank has
+    // agreed: a rank failing while serving the last planes leaves nothing.
+    const bool to_file = output != "-";
+    const std::string written = to_file ? output + ".tetlod-mpi-" + std::to_string(::getpid()) + ".tmp" : output;
     if (rank == 0) {
         DistributedPlanes planes(comm, result.header, slab, partition, traffic);
-        failure = run_local([&] { result.summary = write_container(planes, output, o.write); }, rank);
+        DistributedErrors remote(comm, scan.range, *errors, partition, traffic);
+        ContainerWriteOptions w = o.write;
+        w.ht_errors = &remote;
+        failure = run_local(
+            [&] {
+                injected("encode", "could not encode");
+                result.summary = write_container(planes, written, w);
+            },
+            rank);
         planes.finish();
     } else {
-        failure = run_local([&] { serve_planes(comm, slab, traffic); }, rank);
+        failure = run_local(
+            [&] {
+                serve_planes(comm, slab, *errors, traffic);
+                injected("encode", "could not serve planes " + std::to_string(za) + ".." + std::to_string(zb));
+            },
+            rank);
     }
     result.failure = agree(comm, failure);
-    // The encoder's own messages (a NaN sample, say) name a position, not the
-    // file: say which conversion it was.
-    if (result.failure && result.failure->message.find(file) == std::string::npos &&
-        result.failure->message.find(output) == std::string::npos)
-        result.failure->message = "'" + input + "': " + result.failure->message;
+    if (rank == 0 && to_file) {
+        std::error_code ignored;
+        if (result.failure) std::filesystem::remove(written, ignored);
+        else
+            failure = run_local(
+                [&] {
+                    std::error_code ec;
+                    std::filesystem::rename(written, output, ec);
+                    if (ec) {
+                        std::filesystem::remove(written, ignored);
+                        throw Error(ErrorCode::IoError, "'" + output + "': cannot rename the written container into place: " +
+                                                            ec.message());
+                    }
+                },
+                rank);
+    }
+    if (!result.failure && to_file) result.failure = agree(comm, rank == 0 ? failure : std::nullopt);
+    name_conversion(result.failure);
 
     // What each rank moved, gathered on rank 0 for the report.
-    const double mine[5] = {double(traffic.bytes_read), double(traffic.bytes_sent), double(traffic.bytes_received),
-                            double(traffic.messages), traffic.read_seconds};
-    std::vector<double> all(rank == 0 ? std::size_t(5) * std::size_t(size) : 0);
-    MPI_Gather(mine, 5, MPI_DOUBLE, all.data(), 5, MPI_DOUBLE, 0, comm);
-    for (std::size_t r = 0; r * 5 < all.size(); ++r)
-        result.traffic.push_back(SlabTraffic{uint64_t(all[r * 5]), uint64_t(all[r * 5 + 1]), uint64_t(all[r * 5 + 2]),
-                                             uint64_t(all[r * 5 + 3]), all[r * 5 + 4]});
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    traffic.cpu_seconds = double(usage.ru_utime.tv_sec) + 1e-6 * double(usage.ru_utime.tv_usec);
+    constexpr int kFields = 8;
+    const double mine[kFields] = {double(traffic.bytes_read), double(traffic.bytes_sent),
+                                  double(traffic.bytes_received), double(traffic.messages), traffic.read_seconds,
+                                  traffic.scan_seconds, traffic.error_seconds, traffic.cpu_seconds};
+    std::vector<double> all(rank == 0 ? std::size_t(kFields) * std::size_t(size) : 0);
+    MPI_Gather(mine, kFields, MPI_DOUBLE, all.data(), kFields, MPI_DOUBLE, 0, comm);
+    for (std::size_t r = 0; r * kFields < all.size(); ++r) {
+        const double* v = all.data() + r * kFields;
+        result.traffic.push_back(
+            SlabTraffic{uint64_t(v[0]), uint64_t(v[1]), uint64_t(v[2]), uint64_t(v[3]), v[4], v[5], v[6], v[7]});
+    }
     return result;
 }
 

@@ -30,6 +30,10 @@ struct MpiConvertOptions {
     /// Testing only: this rank reports a read failure after its slab is read
     /// (the environment variable TETLOD_MPI_TEST_FAIL_RANK in tetlod-mpi).
     int fail_rank = -1;
+    /// ... in that phase: "read" (after its slab is read), "scan" (after its
+    /// first pass), "errors" (after its errors), "encode" (rank 0: during the
+    /// encode; others: while serving). TETLOD_MPI_TEST_FAIL_PHASE.
+    std::string fail_phase = "read";
 };
 
 struct MpiConvertResult {

@@ -88,6 +88,7 @@ int run(const Args& a, int rank, int size) {
     o.force = a.force;
     for (const std::string& kv : a.meta) o.meta[kv.substr(0, kv.find('='))] = kv.substr(kv.find('=') + 1);
     if (const char* f = std::getenv("TETLOD_MPI_TEST_FAIL_RANK")) o.fail_rank = std::atoi(f);
+    if (const char* f = std::getenv("TETLOD_MPI_TEST_FAIL_PHASE")) o.fail_phase = f;
 
     if (rank == 0 && !a.quiet) warn_if_pinned();
     const double t0 = MPI_Wtime();
@@ -108,13 +109,14 @@ int run(const Args& a, int rank, int size) {
         // "-": the container goes to standard output, the report to stderr.
         (a.output == "-" ? std::cerr : std::cout) << line.str();
         if (a.verbose > 0) {
-            std::cerr << "rank  bytes read  bytes sent  bytes received  messages  read s\n";
+            std::cerr << "rank  bytes read  bytes sent  bytes received  messages  read s  scan s  errors s  user CPU s\n";
             for (std::size_t i = 0; i < r.traffic.size(); ++i) {
                 const auto& t = r.traffic[i];
                 char row[160];
-                std::snprintf(row, sizeof row, "%4zu %11llu %11llu %15llu %9llu %7.3f\n", i,
+                std::snprintf(row, sizeof row, "%4zu %11llu %11llu %15llu %9llu %7.3f %7.3f %9.3f %11.3f\n", i,
                               (unsigned long long)t.bytes_read, (unsigned long long)t.bytes_sent,
-                              (unsigned long long)t.bytes_received, (unsigned long long)t.messages, t.read_seconds);
+                              (unsigned long long)t.bytes_received, (unsigned long long)t.messages, t.read_seconds,
+                              t.scan_seconds, t.error_seconds, t.cpu_seconds);
                 std::cerr << row;
             }
         }

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/ht/ht_distributed.hpp"
 #include "tetlod/models/ht/ht_error_sweep.hpp"
 #include "tlod_test_util.hpp"
 #include "support/volume_generators.hpp"
@@ -179,4 +180,94 @@ TEST(StreamEncode, MetadataMustDescribeTheVolume) {
     TempPath out("bad.tlod");
     auto planes = planes_of(v);
     EXPECT_THROW(write_ht_container_streaming(*planes, m, out.path), Error);
+}
+
+namespace {
+
+/// The errors of parts of B served to the encoder, as tetlod-mpi's rank 0
+/// does with the other ranks' (packed, then unpacked into the encoder's planes).
+class PartsSource final : public HtErrorSource {
+public:
+    PartsSource(std::array<double, 2> range, const std::vector<std::unique_ptr<HtRangeErrors>>& parts)
+        : range_(range), parts_(parts) {}
+    std::array<double, 2> range() const override { return range_; }
+    void fill(int64_t za, int64_t zb, HtErrorPlaneSink& sink) override {
+        for (const auto& p : parts_) {
+            const int64_t z1 = std::max(za, p->za()), z2 = std::min(zb, p->zb());
+            if (z1 > z2) continue;
+            std::vector<float> packed(ht_packed_error_floats(p->domain(), z1, z2));
+            p->pack(z1, z2, packed.data());
+            ht_unpack_errors(p->domain(), z1, z2, packed.data(), sink);
+        }
+    }
+
+private:
+    std::array<double, 2> range_;
+    const std::vector<std::unique_ptr<HtRangeErrors>>& parts_;
+};
+
+/// The streaming encoder's bytes with range and errors computed in `parts`
+/// ranges of B planes (ht_distributed.hpp), merged as tetlod-mpi merges them.
+std::vector<std::byte> distributed_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo, int parts) {
+    const HtDomain d = HtDomain::for_dims(v.dims, pad);
+    const int64_t planes = int64_t(d.box_max[2]) + 1;
+    auto source = planes_of(v);
+    HtScanPart scan;
+    for (int r = 0; r < parts; ++r) {
+        const HtScanPart part = ht_scan_planes(*source, pad, planes * r / parts, planes * (r + 1) / parts - 1);
+        if (r == 0) scan = part;
+        else ht_merge_scan(scan, part);
+    }
+    std::vector<std::unique_ptr<HtRangeErrors>> errors;
+    for (int r = 0; r < parts; ++r) {
+        errors.push_back(std::make_unique<HtRangeErrors>(*source, pad, scan.range, scan.coarse, planes * r / parts,
+                                                         planes * (r + 1) / parts - 1, 5));
+        errors.back()->compute();
+    }
+    std::vector<std::vector<std::byte>> maxima;
+    for (const auto& e : errors) maxima.push_back(e->partial_maxima());
+    for (int r = 0; r < parts; ++r) {
+        for (int q = 0; q < parts; ++q)
+            if (q != r) errors[std::size_t(r)]->merge_partial_maxima(maxima[std::size_t(q)].data(), maxima[std::size_t(q)].size());
+        errors[std::size_t(r)]->finish();
+    }
+    PartsSource from_parts(scan.range, errors);
+    TempPath out("distributed.tlod");
+    HtStreamEncodeOptions so;
+    so.encode = eo;
+    so.pad = pad;
+    so.errors = &from_parts;
+    tlod::Metadata meta = meta_of(v);
+    meta.value_range = {12345, 6789};  // replaced by the source's range
+    write_ht_container_streaming(*planes_of(v), meta, out.path, so);
+    return read_all(out.path);
+}
+
+}  // namespace
+
+// The hooks of a distributed conversion: any split of the planes gives the
+// serial bytes (large diamonds spanning several parts, parts holding only
+// padded planes, parts thinner than the sweep's reach).
+TEST(StreamEncode, ErrorsComputedInPartsGiveTheSameBytes) {
+    const std::vector<Case> cases = {
+        {{2, 2, 2}, ValueType::U8, test::Field::Noisy, false, 4},
+        {{65, 3, 5}, ValueType::F32, test::Field::Noisy, true, 2},
+        {{70, 41, 66}, ValueType::U8, test::Field::Smooth, false, 4},
+        {{70, 41, 66}, ValueType::U8, test::Field::Noisy, true, 1},
+        {{67, 35, 80}, ValueType::F64, test::Field::Noisy, false, 4},
+        {{66, 66, 66}, ValueType::I32, test::Field::Noisy, false, 3},  // 128-bit accumulators
+        {{35, 34, 70}, ValueType::I8, test::Field::Constant, false, 1},
+    };
+    for (const Case& c : cases) {
+        const Volume v = test::make_volume(c.dims, c.type, c.field, 7);
+        HtEncodeOptions eo;
+        eo.brick_log2 = c.brick_log2;
+        eo.zstd_level = 3;
+        const auto want = streamed_bytes(v, c.pad, eo, std::size_t{1} << 30);
+        for (int parts : {1, 2, 3, 7}) {
+            const auto got = distributed_bytes(v, c.pad, eo, parts);
+            ASSERT_EQ(got.size(), want.size()) << name_of(c) << ", " << parts << " parts";
+            EXPECT_TRUE(got == want) << name_of(c) << ", " << parts << " parts";
+        }
+    }
 }

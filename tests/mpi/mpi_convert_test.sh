@@ -76,6 +76,15 @@ awkward-u8)
 awkward-f32)
     make_h5 noisy 37,29,41 f32 noisy_f32
     convert_and_compare noisy_f32.h5:/volume f32
+    # Padding: B has 65 planes, the source 41; ranks 2 and 3 of 4 hold only
+    # padded planes (the last source plane repeated) and a slab of 16 planes
+    # is thinner than the 32-plane reach of the largest diamonds.
+    "$tetlod" -q convert noisy_f32.h5:/volume serial_pad.tlod --pad || fail "serial --pad"
+    for n in 3 4; do
+        run_mpi "$n" -q convert noisy_f32.h5:/volume "mpi${n}_pad.tlod" --pad || fail "mpi --pad -n $n"
+        cmp serial_pad.tlod "mpi${n}_pad.tlod" || fail "f32 --pad, -n $n differs"
+        echo "ok: f32 --pad, -n $n: byte-identical"
+    done
     ;;
 real)
     raw="$data/headsq_64x64x93_int16.raw"
@@ -104,6 +113,18 @@ failures)
         grep -q "rank $2" err.txt && grep -q "s.h5" err.txt || fail "rank $2 of $1: message: $(cat err.txt)"
         echo "ok: rank $2 of $1 fails to read: exit 3: $(head -1 err.txt)"; rm -f err.txt
         no_leftovers "failing rank"
+    done
+    # A rank failing in the distributed phases (its first pass, its errors,
+    # the encode on rank 0 or serving planes and errors on the others).
+    for spec in "2 1 scan" "4 0 scan" "2 0 errors" "4 3 errors" "2 0 encode" "4 2 encode"; do
+        set -- $spec
+        TETLOD_MPI_TEST_FAIL_RANK=$2 TETLOD_MPI_TEST_FAIL_PHASE=$3 run_mpi "$1" convert s.h5:/volume out.tlod 2> err.txt
+        code=$?
+        [ "$code" -eq 3 ] || fail "rank $2 of $1 failing in $3: exit $code, expected 3: $(cat err.txt)"
+        grep -q "s.h5" err.txt && grep -q "injected" err.txt || fail "rank $2 of $1 in $3: message: $(cat err.txt)"
+        if [ "$2" -ne 0 ]; then grep -q "rank $2" err.txt || fail "rank $2 of $1 in $3: no rank named: $(cat err.txt)"; fi
+        echo "ok: rank $2 of $1 fails in $3: exit 3: $(head -1 err.txt)"; rm -f err.txt
+        no_leftovers "rank failing in $3"
     done
     # Not HDF5 at all: refused before any collective call.
     run_mpi 2 convert s.raw out.tlod 2> err.txt

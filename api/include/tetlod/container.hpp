@@ -33,6 +33,8 @@ namespace tetlod {
 
 // ---- writing ----
 
+class HtErrorSource;  // codecs/ht/ht_codec.hpp
+
 struct ContainerWriteOptions {
     bool ht = true, mt = false;  // models to store (at least one)
     bool pad = false;            // HT: embed the data in the enclosing (2^k+1)^3 cube
@@ -60,6 +62,11 @@ struct ContainerWriteOptions {
     /// call at a time), "built MT", "build HT", "built HT", "encoded HT"
     /// (done = total = 0), and "encode HT" after each chunk (done of total chunks).
     std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
+    /// Distributed conversion (tetlod-mpi, the VolumePlanes overload, HT only):
+    /// the value range and errors computed by several processes
+    /// (codecs/ht/ht_distributed.hpp), so the encoder reads the planes once
+    /// and sweeps nothing. Null: computed here. Not owned.
+    HtErrorSource* ht_errors = nullptr;
 };
 
 struct ContainerWriteSummary {

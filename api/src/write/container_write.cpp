@@ -96,6 +96,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
     so.encode.brick_log2 = o.brick_log2;
     so.encode.error_mantissa_bits = o.error_bits;
     so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
+    so.errors = o.ht_errors;
     if (o.progress)
         so.progress = [&](const char* stage, uint64_t done, uint64_t total) {
             o.progress(std::string(stage) + " HT", std::size_t(done), std::size_t(total));

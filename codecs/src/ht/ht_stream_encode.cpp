@@ -21,6 +21,8 @@
 
 #include <cstring>
 
+#include "tetlod/codecs/ht/ht_distributed.hpp"
+
 #include "ht_chunk_geometry.hpp"
 #include "ht_container_parts.hpp"
 #include "ht_error_chunk_coder.hpp"
@@ -76,6 +78,100 @@ private:
     std::vector<std::byte> source_plane_;
 };
 
+/// Pass 1 over planes zfrom..zto of B: the range and finiteness of the
+/// source's samples there (`any`: some sample seen) and the coarse lattice's
+/// points of those planes (the rest of `coarse` is zero).
+template <class T>
+std::vector<std::byte> scan_box(BoxPlanes& planes_, const HtDomain& d_, const Geometry& G_, const Dims sd,
+                            int64_t zfrom, int64_t zto, const HtStreamEncodeOptions& o_, int64_t zmax_,
+                            std::array<double, 2>& range, bool& any_out) {
+    const Dims cd = HtErrorSweep::coarse_dims(d_);
+    std::vector<std::byte> coarse(std::size_t(cd.count()) * sizeof(T));
+    std::vector<T> buf;
+    const int64_t per = std::max<int64_t>(1, int64_t((std::size_t{32} << 20) / planes_.plane_bytes()));
+    buf.resize(std::size_t(per) * std::size_t(G_.nx * G_.ny));
+    bool any = false;
+    T lo{}, hi{};
+    for (int64_t z0 = zfrom; z0 <= zto; z0 += per) {
+        const int64_t n = std::min(per, zto + 1 - z0);
+        planes_.read(z0, n, reinterpret_cast<std::byte*>(buf.data()));
+        // Range and finiteness over the source's samples, plane by plane in
+        // parallel, combined in plane order (the first minimum and the first
+        // non-finite value are those a scan in file order finds).
+        struct PlaneScan {
+            bool any = false;
+            T lo{}, hi{};
+            int64_t bad_x = -1, bad_y = -1;
+        };
+        std::vector<PlaneScan> scans(static_cast<std::size_t>(n));
+        tbb::parallel_for(int64_t(0), n, [&](int64_t i) {
+            if (z0 + i >= sd.z) return;
+            PlaneScan& ps = scans[std::size_t(i)];
+            const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+            for (int64_t y = 0; y < sd.y; ++y) {
+                const T* row = plane + y * G_.nx;
+                if constexpr (std::is_integral_v<T>) {
+                    // Integers: the extremes do not depend on the visiting
+                    // order, so the row reduces in a loop the compiler
+                    // vectorizes (the per-value loop below cost ~1 ns a point).
+                    T rlo = row[0], rhi = row[0];
+                    for (int64_t x = 1; x < sd.x; ++x) {
+                        rlo = std::min(rlo, row[x]);
+                        rhi = std::max(rhi, row[x]);
+                    }
+                    if (!ps.any) ps.lo = rlo, ps.hi = rhi, ps.any = true;
+                    ps.lo = std::min(ps.lo, rlo);
+                    ps.hi = std::max(ps.hi, rhi);
+                    continue;
+                }
+                for (int64_t x = 0; x < sd.x; ++x) {
+                    const T v = row[x];
+                    if constexpr (std::is_floating_point_v<T>) {
+                        if (!std::isfinite(v)) {
+                            ps.bad_x = x;
+                            ps.bad_y = y;
+                            return;
+                        }
+                    }
+                    if (!ps.any) ps.lo = ps.hi = v, ps.any = true;
+                    ps.lo = v < ps.lo ? v : ps.lo;
+                    ps.hi = v > ps.hi ? v : ps.hi;
+                }
+            }
+        });
+        for (int64_t i = 0; i < n; ++i) {
+            const PlaneScan& ps = scans[std::size_t(i)];
+            if (ps.bad_x >= 0) {
+                const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+                throw Error(ErrorCode::CorruptData,
+                            "the volume holds a non-finite value (" +
+                                std::to_string(double(plane[ps.bad_y * G_.nx + ps.bad_x])) + ") at (" +
+                                std::to_string(ps.bad_x) + "," + std::to_string(ps.bad_y) + "," +
+                                std::to_string(z0 + i) + "); the HT needs finite values everywhere");
+            }
+            if (!ps.any) continue;
+            if (!any) lo = ps.lo, hi = ps.hi, any = true;
+            lo = ps.lo < lo ? ps.lo : lo;
+            hi = ps.hi > hi ? ps.hi : hi;
+        }
+        for (int64_t i = 0; i < n; ++i) {
+            const int64_t z = z0 + i;
+            const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
+            constexpr int s = HtErrorSweep::kCoarseShift;
+            if ((z & ((int64_t{1} << s) - 1)) != 0) continue;
+            T* out = reinterpret_cast<T*>(coarse.data()) + std::size_t((z >> s) * cd.y * cd.x);
+            for (int64_t y = 0; y < G_.ny; y += int64_t{1} << s)
+                for (int64_t x = 0; x < G_.nx; x += int64_t{1} << s)
+                    out[(y >> s) * cd.x + (x >> s)] = plane[y * G_.nx + x];
+        }
+        if (o_.progress) o_.progress("scan", uint64_t(z0 + n), uint64_t(zmax_ + 1));
+    }
+    range = {double(lo), double(hi)};
+    any_out = any;
+    return coarse;
+}
+
+
 /// Where one chunk's two sections lie in the spill file.
 struct SpilledChunk {
     uint64_t field_offset = 0, field_size = 0, field_checksum = 0;
@@ -98,11 +194,18 @@ public:
     HtStreamEncodeSummary run(tlod::Metadata meta) {
         HtStreamEncodeSummary summary;
         summary.domain = d_;
-        std::vector<std::byte> coarse = scan(summary.range);
-        HtErrorSweep sweep(d_, meta.type, summary.range, std::move(coarse));
-        summary.slab_planes = int(plan_slab(sweep.memory_bytes(), summary.planned_bytes));
-        summary.chunks = chunks_.size();
-        encode_all(sweep, summary.slab_planes);
+        if (o_.errors) {
+            summary.range = o_.errors->range();
+            summary.slab_planes = int(plan_slab(0, summary.planned_bytes));
+            summary.chunks = chunks_.size();
+            encode_all(nullptr, summary.slab_planes);
+        } else {
+            std::vector<std::byte> coarse = scan(summary.range);
+            HtErrorSweep sweep(d_, meta.type, summary.range, std::move(coarse));
+            summary.slab_planes = int(plan_slab(sweep.memory_bytes(), summary.planned_bytes));
+            summary.chunks = chunks_.size();
+            encode_all(&sweep, summary.slab_planes);
+        }
         meta.value_range = summary.range;
         assemble(meta);
         return summary;
@@ -135,90 +238,8 @@ private:
 
     // ---- pass 1 ----
     std::vector<std::byte> scan(std::array<double, 2>& range) {
-        const Dims cd = HtErrorSweep::coarse_dims(d_);
-        std::vector<std::byte> coarse(std::size_t(cd.count()) * sizeof(T));
-        const Dims sd = planes_.source_dims();
-        std::vector<T> buf;
-        const int64_t per = std::max<int64_t>(1, int64_t((std::size_t{32} << 20) / planes_.plane_bytes()));
-        buf.resize(std::size_t(per) * std::size_t(G_.nx * G_.ny));
         bool any = false;
-        T lo{}, hi{};
-        for (int64_t z0 = 0; z0 <= zmax_; z0 += per) {
-            const int64_t n = std::min(per, zmax_ + 1 - z0);
-            planes_.read(z0, n, reinterpret_cast<std::byte*>(buf.data()));
-            // Range and finiteness over the source's samples, plane by plane in
-            // parallel, combined in plane order (the first minimum and the first
-            // non-finite value are those a scan in file order finds).
-            struct PlaneScan {
-                bool any = false;
-                T lo{}, hi{};
-                int64_t bad_x = -1, bad_y = -1;
-            };
-            std::vector<PlaneScan> scans(static_cast<std::size_t>(n));
-            tbb::parallel_for(int64_t(0), n, [&](int64_t i) {
-                if (z0 + i >= sd.z) return;
-                PlaneScan& ps = scans[std::size_t(i)];
-                const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
-                for (int64_t y = 0; y < sd.y; ++y) {
-                    const T* row = plane + y * G_.nx;
-                    if constexpr (std::is_integral_v<T>) {
-                        // Integers: the extremes do not depend on the visiting
-                        // order, so the row reduces in a loop the compiler
-                        // vectorizes (the per-value loop below cost ~1 ns a point).
-                        T rlo = row[0], rhi = row[0];
-                        for (int64_t x = 1; x < sd.x; ++x) {
-                            rlo = std::min(rlo, row[x]);
-                            rhi = std::max(rhi, row[x]);
-                        }
-                        if (!ps.any) ps.lo = rlo, ps.hi = rhi, ps.any = true;
-                        ps.lo = std::min(ps.lo, rlo);
-                        ps.hi = std::max(ps.hi, rhi);
-                        continue;
-                    }
-                    for (int64_t x = 0; x < sd.x; ++x) {
-                        const T v = row[x];
-                        if constexpr (std::is_floating_point_v<T>) {
-                            if (!std::isfinite(v)) {
-                                ps.bad_x = x;
-                                ps.bad_y = y;
-                                return;
-                            }
-                        }
-                        if (!ps.any) ps.lo = ps.hi = v, ps.any = true;
-                        ps.lo = v < ps.lo ? v : ps.lo;
-                        ps.hi = v > ps.hi ? v : ps.hi;
-                    }
-                }
-            });
-            for (int64_t i = 0; i < n; ++i) {
-                const PlaneScan& ps = scans[std::size_t(i)];
-                if (ps.bad_x >= 0) {
-                    const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
-                    throw Error(ErrorCode::CorruptData,
-                                "the volume holds a non-finite value (" +
-                                    std::to_string(double(plane[ps.bad_y * G_.nx + ps.bad_x])) + ") at (" +
-                                    std::to_string(ps.bad_x) + "," + std::to_string(ps.bad_y) + "," +
-                                    std::to_string(z0 + i) + "); the HT needs finite values everywhere");
-                }
-                if (!ps.any) continue;
-                if (!any) lo = ps.lo, hi = ps.hi, any = true;
-                lo = ps.lo < lo ? ps.lo : lo;
-                hi = ps.hi > hi ? ps.hi : hi;
-            }
-            for (int64_t i = 0; i < n; ++i) {
-                const int64_t z = z0 + i;
-                const T* plane = buf.data() + std::size_t(i * G_.nx * G_.ny);
-                constexpr int s = HtErrorSweep::kCoarseShift;
-                if ((z & ((int64_t{1} << s) - 1)) != 0) continue;
-                T* out = reinterpret_cast<T*>(coarse.data()) + std::size_t((z >> s) * cd.y * cd.x);
-                for (int64_t y = 0; y < G_.ny; y += int64_t{1} << s)
-                    for (int64_t x = 0; x < G_.nx; x += int64_t{1} << s)
-                        out[(y >> s) * cd.x + (x >> s)] = plane[y * G_.nx + x];
-            }
-            if (o_.progress) o_.progress("scan", uint64_t(z0 + n), uint64_t(zmax_ + 1));
-        }
-        range = {double(lo), double(hi)};
-        return coarse;
+        return scan_box<T>(planes_.box(), d_, G_, planes_.source_dims(), 0, zmax_, o_, zmax_, range, any);
     }
 
     // ---- planning ----
@@ -270,7 +291,7 @@ private:
     }
 
     // ---- pass 2 ----
-    void encode_all(HtErrorSweep& sweep, int64_t S) {
+    void encode_all(HtErrorSweep* sweep, int64_t S) {
         set_up_rows(S);
         for (Rows& r : rows_) {
             r.values.assign(std::size_t(r.cap_planes * r.plane_points), T{});
@@ -298,7 +319,8 @@ private:
             }
             const T* w = reinterpret_cast<const T*>(window.data());
             for (Rows& r : rows_) take_values(r, w, wz0, za, zb);
-            sweep.process(window.data(), wz0, za, zb, *this);
+            if (sweep) sweep->process(window.data(), wz0, za, zb, *this);
+            else o_.errors->fill(za, zb, *this);
             for (Rows& r : rows_)
                 while (r.row < r.nrows && std::min(r.row_hi(zmax_) + r.h, zmax_) <= zb) encode_row(r);
             if (o_.progress) o_.progress("encode", uint64_t(zb + 1), uint64_t(zmax_ + 1));
@@ -413,6 +435,7 @@ private:
         std::size_t plane_bytes() const { return box_.plane_bytes(); }
         void read(int64_t z0, int64_t n, std::byte* dst) { box_.read(z0, n, dst); }
         Dims source_dims() const { return sd_; }
+        BoxPlanes& box() { return box_; }
 
     private:
         BoxPlanes box_;
@@ -453,6 +476,156 @@ HtStreamEncodeSummary write_ht_container_streaming(VolumePlanes& source, tlod::M
         StreamEncoder<T> enc(source, d, o, path);
         return enc.run(std::move(meta));
     });
+}
+
+}  // namespace tetlod
+
+// ---- Distributed conversion hooks (ht_distributed.hpp) ----
+
+namespace tetlod {
+
+namespace {
+
+int64_t lattice_plane_points(const HtDomain& d, int t) {
+    return ((int64_t(d.box_max[0]) >> t) + 1) * ((int64_t(d.box_max[1]) >> t) + 1);
+}
+
+int64_t first_multiple(int64_t z, int t) {
+    const int64_t h = int64_t{1} << t;
+    return (std::max<int64_t>(z, 0) + h - 1) / h * h;
+}
+
+int64_t multiples_in(int64_t z1, int64_t z2, int t) {
+    const int64_t f = first_multiple(z1, t);
+    return z2 >= f ? ((z2 - f) >> t) + 1 : 0;
+}
+
+}  // namespace
+
+std::array<int64_t, 2> ht_source_planes_for(const HtDomain& d, const Dims& source, int64_t za, int64_t zb) {
+    if (za > zb) return {0, -1};
+    const int64_t lo = std::max<int64_t>(0, za - HtErrorSweep::kReach);
+    const int64_t hi = std::min<int64_t>(d.box_max[2], zb + HtErrorSweep::kReach);
+    // BoxPlanes repeats the last source plane beyond the volume (padding).
+    return {std::min(lo, source.z - 1), std::min(hi, source.z - 1)};
+}
+
+HtScanPart ht_scan_planes(VolumePlanes& source, bool pad, int64_t za, int64_t zb) {
+    const Volume& h = source.header();
+    const HtDomain d = HtDomain::for_dims(h.dims, pad);
+    HtScanPart part;
+    if (za > zb) {
+        part.coarse.assign(std::size_t(HtErrorSweep::coarse_dims(d).count()) * value_size(h.type), std::byte{0});
+        return part;
+    }
+    if (za < 0 || zb > d.box_max[2]) throw Error(ErrorCode::InvalidArgument, "ht_scan_planes: planes outside B");
+    HtStreamEncodeOptions o;
+    dispatch_value_type(h.type, [&](auto tag) {
+        using T = decltype(tag);
+        BoxPlanes box(source, d);
+        const Geometry G = geometry_of(d, 4);
+        part.coarse = scan_box<T>(box, d, G, h.dims, za, zb, o, d.box_max[2], part.range, part.any);
+    });
+    return part;
+}
+
+void ht_merge_scan(HtScanPart& into, const HtScanPart& next) {
+    if (into.coarse.size() != next.coarse.size())
+        throw Error(ErrorCode::InvalidArgument, "ht_merge_scan: parts of different volumes");
+    // Each coarse point comes from one part, the others hold zero bytes there.
+    for (std::size_t i = 0; i < into.coarse.size(); ++i) into.coarse[i] |= next.coarse[i];
+    if (!next.any) return;
+    if (!into.any) {
+        into.range = next.range;
+        into.any = true;
+        return;
+    }
+    // As the serial scan: strict comparisons, so the first of equal extremes stays.
+    into.range[0] = next.range[0] < into.range[0] ? next.range[0] : into.range[0];
+    into.range[1] = next.range[1] > into.range[1] ? next.range[1] : into.range[1];
+}
+
+HtRangeErrors::HtRangeErrors(VolumePlanes& source, bool pad, std::array<double, 2> range,
+                             std::vector<std::byte> coarse, int64_t za, int64_t zb, int64_t slab_planes)
+    : source_(source), d_(HtDomain::for_dims(source.header().dims, pad)), za_(za), zb_(zb),
+      slab_(std::max<int64_t>(1, slab_planes)), sweep_(d_, source.header().type, range, std::move(coarse)) {
+    if (za <= zb && (za < 0 || zb > d_.box_max[2]))
+        throw Error(ErrorCode::InvalidArgument, "HtRangeErrors: planes outside B");
+    sweep_.set_partial(true);
+    const int k = std::max(0, d_.k);
+    planes_.resize(std::size_t(k));
+    first_.resize(std::size_t(k));
+    for (int t = 0; t < k; ++t) {
+        first_[std::size_t(t)] = first_multiple(za, t);
+        planes_[std::size_t(t)].assign(std::size_t(multiples_in(za, zb, t) * lattice_plane_points(d_, t)), 0.0f);
+    }
+}
+
+HtRangeErrors::~HtRangeErrors() = default;
+
+void HtRangeErrors::compute() {
+    if (za_ > zb_) return;
+    BoxPlanes box(source_, d_);
+    const std::size_t plane = box.plane_bytes();
+    const int64_t zmax = d_.box_max[2];
+    HugePageVector<std::byte> window(std::size_t(slab_ + 2 * kReach) * plane);
+    for (int64_t a = za_; a <= zb_; a += slab_) {
+        const int64_t b = std::min(a + slab_ - 1, zb_);
+        const int64_t lo = std::max<int64_t>(0, a - kReach), hi = std::min(zmax, b + kReach);
+        box.read(lo, hi - lo + 1, window.data());
+        sweep_.process(window.data(), lo, a, b, *this);
+    }
+}
+
+void HtRangeErrors::finish() { sweep_.finish_range(za_, zb_, *this); }
+
+float* HtRangeErrors::error_plane(int t, int64_t z) {
+    if (t < 0 || t >= int(planes_.size()) || z < first_[std::size_t(t)] || z > zb_ || (z & ((int64_t{1} << t) - 1)))
+        throw Error(ErrorCode::InvalidArgument, "HtRangeErrors: error plane outside its planes");
+    return planes_[std::size_t(t)].data() +
+           std::size_t(((z - first_[std::size_t(t)]) >> t) * lattice_plane_points(d_, t));
+}
+
+void HtRangeErrors::pack(int64_t z1, int64_t z2, float* out) const {
+    if (z1 > z2) return;
+    if (z1 < za_ || z2 > zb_) throw Error(ErrorCode::InvalidArgument, "HtRangeErrors: packing planes it does not hold");
+    for (int t = 0; t < int(planes_.size()); ++t) {
+        const int64_t n = multiples_in(z1, z2, t), pp = lattice_plane_points(d_, t);
+        if (n == 0) continue;
+        const int64_t from = (first_multiple(z1, t) - first_[std::size_t(t)]) >> t;
+        std::memcpy(out, planes_[std::size_t(t)].data() + std::size_t(from * pp), std::size_t(n * pp) * sizeof(float));
+        out += n * pp;
+    }
+}
+
+std::size_t HtRangeErrors::bytes() const {
+    std::size_t b = 0;
+    for (const auto& p : planes_) b += p.size() * sizeof(float);
+    return b;
+}
+
+std::size_t ht_packed_error_floats(const HtDomain& d, int64_t z1, int64_t z2) {
+    std::size_t n = 0;
+    for (int t = 0; t < d.k; ++t) n += std::size_t(multiples_in(z1, z2, t) * lattice_plane_points(d, t));
+    return n;
+}
+
+void ht_unpack_errors(const HtDomain& d, int64_t z1, int64_t z2, const float* packed, HtErrorPlaneSink& sink) {
+    for (int t = 0; t < d.k; ++t) {
+        const int64_t pp = lattice_plane_points(d, t), n = multiples_in(z1, z2, t);
+        const int64_t nx = (int64_t(d.box_max[0]) >> t) + 1, ny = (int64_t(d.box_max[1]) >> t) + 1;
+        for (int64_t i = 0, z = first_multiple(z1, t); i < n; ++i, z += int64_t{1} << t) {
+            // Only the centres of cycle t, as the sweep writes them: the
+            // encoder's buffer keeps whatever it holds elsewhere.
+            float* out = sink.error_plane(t, z);
+            const bool z_even = ((z >> t) & 1) == 0;
+            for (int64_t yi = 0; yi < ny; ++yi) {
+                const int64_t step = z_even && (yi & 1) == 0 ? 2 : 1;
+                for (int64_t xi = step - 1; xi < nx; xi += step) out[yi * nx + xi] = packed[yi * nx + xi];
+            }
+            packed += pp;
+        }
+    }
 }
 
 }  // namespace tetlod

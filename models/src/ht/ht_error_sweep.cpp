@@ -14,6 +14,10 @@ struct HtErrorSweep::Impl {
     virtual void process(const std::byte* window, int64_t window_z0, int64_t za, int64_t zb,
                          HtErrorPlaneSink& sink) = 0;
     virtual std::size_t memory_bytes() const = 0;
+    virtual void set_partial(bool partial) = 0;
+    virtual std::vector<std::byte> partial_maxima() const = 0;
+    virtual void merge_partial_maxima(const std::byte* other, std::size_t bytes) = 0;
+    virtual void finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink) = 0;
 };
 
 namespace {
@@ -62,7 +66,48 @@ public:
             }
         }
         scan_gathered(eb);
-        finish_large(zb, sink);
+        if (!partial_only_) finish_large(zb, sink);
+    }
+
+    void set_partial(bool partial) override { partial_only_ = partial; }
+
+    std::vector<std::byte> partial_maxima() const override {
+        std::size_t n = 0;
+        for (const auto& p : partial_) n += p.size();
+        std::vector<std::byte> out(n * sizeof(Acc));
+        std::size_t at = 0;
+        for (const auto& p : partial_) {
+            if (p.empty()) continue;
+            std::memcpy(out.data() + at, p.data(), p.size() * sizeof(Acc));
+            at += p.size() * sizeof(Acc);
+        }
+        return out;
+    }
+
+    void merge_partial_maxima(const std::byte* other, std::size_t bytes) override {
+        std::size_t n = 0;
+        for (const auto& p : partial_) n += p.size();
+        if (bytes != n * sizeof(Acc))
+            throw Error(ErrorCode::InvalidArgument, "HtErrorSweep: partial maxima of another domain");
+        std::size_t at = 0;
+        for (auto& p : partial_) {
+            for (Acc& mine : p) {
+                Acc theirs;
+                std::memcpy(&theirs, other + at, sizeof(Acc));
+                at += sizeof(Acc);
+                // kCrossing (-1) is below every maximum: keep it explicitly.
+                if (mine == kCrossing || theirs == kCrossing) mine = kCrossing;
+                else if (theirs > mine) mine = theirs;
+            }
+        }
+    }
+
+    void finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink) override {
+        for (int t = kFineMaxCycle + 1; t < dom_.k; ++t) {
+            const int64_t h = int64_t{1} << t;
+            for (int64_t z = (std::max<int64_t>(za, 0) + h - 1) / h * h; z <= zb && z <= dom_.box_max[2]; z += h)
+                finish_plane(t, z, sink);
+        }
     }
 
     std::size_t memory_bytes() const override {
@@ -163,18 +208,22 @@ private:
         for (int t = kFineMaxCycle + 1; t < dom_.k; ++t) {
             const int64_t h = int64_t{1} << t;
             int64_t& z = next_final_[std::size_t(t)];
-            for (; z <= zmax && std::min(z + h, zmax) <= zb; z += h) {
-                float* plane = sink.error_plane(t, z);
-                const int64_t nx = lattice(t, 0);
-                const bool z_even = (z & (2 * h - 1)) == 0;
-                for (int64_t y = 0; y <= dom_.box_max[1]; y += h) {
-                    const bool yz_even = z_even && (y & (2 * h - 1)) == 0;
-                    for (int64_t x = 0; x <= dom_.box_max[0]; x += h) {
-                        if (yz_even && (x & (2 * h - 1)) == 0) continue;  // a coarser point
-                        const Pt c{int32_t(x), int32_t(y), int32_t(z)};
-                        plane[(y >> t) * nx + (x >> t)] = eb_round(final_error(t, c));
-                    }
-                }
+            for (; z <= zmax && std::min(z + h, zmax) <= zb; z += h) finish_plane(t, z, sink);
+        }
+    }
+
+    /// The errors of cycle t's large diamonds centred in plane z.
+    void finish_plane(int t, int64_t z, HtErrorPlaneSink& sink) const {
+        const int64_t h = int64_t{1} << t;
+        float* plane = sink.error_plane(t, z);
+        const int64_t nx = lattice(t, 0);
+        const bool z_even = (z & (2 * h - 1)) == 0;
+        for (int64_t y = 0; y <= dom_.box_max[1]; y += h) {
+            const bool yz_even = z_even && (y & (2 * h - 1)) == 0;
+            for (int64_t x = 0; x <= dom_.box_max[0]; x += h) {
+                if (yz_even && (x & (2 * h - 1)) == 0) continue;  // a coarser point
+                const Pt c{int32_t(x), int32_t(y), int32_t(z)};
+                plane[(y >> t) * nx + (x >> t)] = eb_round(final_error(t, c));
             }
         }
     }
@@ -203,6 +252,7 @@ private:
     std::vector<std::vector<Acc>> partial_;                                // per cycle
     std::vector<int64_t> next_final_;  // per cycle: the first plane of centres not yet handed over
     std::vector<RowTask> tasks_;       // this slab's rows of large diamonds
+    bool partial_only_ = false;        // distributed: large diamonds wait for finish_range
 };
 
 }  // namespace
@@ -232,5 +282,17 @@ void HtErrorSweep::process(const std::byte* window, int64_t window_z0, int64_t z
 }
 
 std::size_t HtErrorSweep::memory_bytes() const { return impl_->memory_bytes(); }
+
+void HtErrorSweep::set_partial(bool partial) { impl_->set_partial(partial); }
+
+std::vector<std::byte> HtErrorSweep::partial_maxima() const { return impl_->partial_maxima(); }
+
+void HtErrorSweep::merge_partial_maxima(const std::byte* other, std::size_t bytes) {
+    impl_->merge_partial_maxima(other, bytes);
+}
+
+void HtErrorSweep::finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink) {
+    impl_->finish_range(za, zb, sink);
+}
 
 }  // namespace tetlod

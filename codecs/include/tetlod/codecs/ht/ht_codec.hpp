@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "tetlod/codecs/error_quantizer.hpp"
+#include "tetlod/models/ht/ht_error_sweep.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/volume_planes.hpp"
@@ -39,6 +40,19 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
 void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
                         const HtEncodeOptions& options = {});
 
+/// Errors computed elsewhere (a distributed conversion, ht_distributed.hpp):
+/// the streaming encoder then skips its first pass and its error sweep, reads
+/// the planes once and asks for the errors of each slab instead.
+class HtErrorSource {
+public:
+    virtual ~HtErrorSource() = default;
+    /// The value range of the whole volume (what the first pass would find).
+    virtual std::array<double, 2> range() const = 0;
+    /// Puts into `sink` the errors of every cycle t < k centred in planes
+    /// za..zb of the data box (slabs come in order; whole lattice planes).
+    virtual void fill(int64_t za, int64_t zb, HtErrorPlaneSink& sink) = 0;
+};
+
 /// Out-of-core conversion: the HT container of a volume read plane by plane.
 struct HtStreamEncodeOptions {
     HtEncodeOptions encode;  // its progress callback is not used: see `progress`
@@ -56,6 +70,9 @@ struct HtStreamEncodeOptions {
     /// Called from the calling thread as (stage, done, total): "scan" over the
     /// planes (range, coarse lattice), then "encode" over the planes.
     std::function<void(const char* stage, uint64_t done, uint64_t total)> progress;
+    /// Not null: the range and errors come from there (same bytes when they
+    /// are those of the volume). Not owned.
+    HtErrorSource* errors = nullptr;
 };
 
 struct HtStreamEncodeSummary {

@@ -66,6 +66,26 @@ public:
     /// Bytes held between slabs (coarse lattice, running maxima, templates).
     std::size_t memory_bytes() const;
 
+    // ---- Distributed use: several sweeps, each over its own range of planes ----
+    // A partial sweep takes slabs covering only its planes za..zb (in order,
+    // the first starting at za, windows as for process()): the small diamonds
+    // centred there are final and go to the sink; the large ones only collect
+    // the maxima of the rows it holds. Every row scanned by exactly one sweep,
+    // the maxima of the partial maxima (merge_partial_maxima, any grouping)
+    // are the whole-field maxima, and finish_range() then hands over the same
+    // floats as a whole sweep.
+
+    /// Partial mode: process() no longer hands over large diamonds.
+    void set_partial(bool partial);
+    /// The running maxima of the large diamonds (bytes, the same size on every
+    /// sweep of the same domain, type and range).
+    std::vector<std::byte> partial_maxima() const;
+    /// Takes the maximum with another sweep's partial_maxima() (a diamond
+    /// crossing the data box stays so).
+    void merge_partial_maxima(const std::byte* other, std::size_t bytes);
+    /// Hands over the large diamonds centred in planes za..zb (after the merge).
+    void finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink);
+
     struct Impl;
 
 private:

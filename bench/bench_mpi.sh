@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Speed-up of tetlod-mpi (docs/distributed.md §2): `tetlod convert` and
+# `mpirun -n 1|2 tetlod-mpi convert` on a generated volume, alternated,
+# REPEAT times each; prints every run (wall, user CPU of the job), the minimum
+# of each, the speed-up of -n 2 over -n 1 and over the serial tool, the load
+# (uptime) before each run, the bytes each rank read and sent (-v), and checks
+# that every container is byte-identical to the serial one.
+#
+#   bench/bench_mpi.sh BUILD_DIR [SIZE=513] [REPEAT=2] [WORKDIR=/tmp/tetlod_bench_mpi]
+set -euo pipefail
+build=$(cd "$1" && pwd) size=${2:-513} repeat=${3:-2} work=${4:-/tmp/tetlod_bench_mpi}
+tetlod=$build/tools/tetlod tetlod_mpi=$build/mpi/tetlod-mpi
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
+export SOURCE_DATE_EPOCH=0
+mkdir -p "$work" && cd "$work"
+if [ ! -f "ms$size.h5" ]; then
+    "$tetlod" -q sample multiscale "ms$size.raw" --size "$size"
+    "$tetlod" -q decode "ms$size.raw" "ms$size.h5:/volume" --dims "$size,$size,$size" --dtype u8
+    rm -f "ms$size.raw"
+fi
+in="ms$size.h5:/volume"
+
+# run LABEL CMD...: wall and user CPU (children) seconds into $wall $user.
+run() {
+    local label=$1; shift
+    local load; load=$(uptime | sed 's/.*load average: //')
+    local t0 t1 u; t0=$(date +%s.%N)
+    /usr/bin/time -f '%U' -o "$label.time" "$@" > /dev/null 2> "$label.err" || { cat "$label.err"; exit 1; }
+    t1=$(date +%s.%N)
+    u=$(tail -1 "$label.time")
+    wall=$(echo "$t1 - $t0" | bc -l)
+    printf '%-8s wall %7.2f s  user CPU (all processes) %7.2f s  load before: %s\n' "$label" "$wall" "$u" "$load"
+    echo "$wall" >> "$label.walls"
+}
+rm -f serial.walls n1.walls n2.walls
+for i in $(seq "$repeat"); do
+    run serial "$tetlod" -q convert "$in" serial.tlod -f
+    run n1 mpirun -n 1 --bind-to none "$tetlod_mpi" -v -f convert "$in" n1.tlod
+    run n2 mpirun -n 2 --bind-to none "$tetlod_mpi" -v -f convert "$in" n2.tlod
+    cmp serial.tlod n1.tlod && cmp serial.tlod n2.tlod || { echo "FAIL: containers differ"; exit 1; }
+done
+best() { sort -g "$1.walls" | head -1; }
+s=$(best serial) a=$(best n1) b=$(best n2)
+echo "per rank, last -n 1 run:"; grep -A2 '^rank' n1.err | head -3
+echo "per rank, last -n 2 run:"; grep -A3 '^rank' n2.err | head -4
+printf 'minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s\n' "$s" "$a" "$b"
+printf 'speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod convert (containers byte-identical)\n' \
+    "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"
