@@ -16,6 +16,7 @@
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
+#include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 

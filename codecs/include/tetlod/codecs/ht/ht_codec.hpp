@@ -29,7 +29,7 @@ struct HtEncodeOptions {
     int error_mantissa_bits = 4;
     /// Chunk modes (spec §6.4): -1 codes every chunk section in the smallest
     /// mode; 0 range, 1 constant, 2 samples, 3 zero-residual force that mode
-    /// wherever it can code the chunk (tests), the smallest elsewhere.
+    /// wherever it can code the chunk (tests), range elsewhere.
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
