@@ -75,17 +75,20 @@ std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo
         auto it = std::find_if(rows.begin(), rows.end(),
                                [&](const SectionCoderInfo& r) { return r.type == s.type && r.coder == coder; });
         if (it == rows.end()) {
+            // A new coder of a known type goes after that type's rows, so the
+            // modes of one section kind are listed together.
+            auto after = std::find_if(rows.rbegin(), rows.rend(), [&](const SectionCoderInfo& r) { return r.type == s.type; });
             SectionCoderInfo r;
             r.type = s.type;
             r.section = tlod::section_type_name(s.type);
             r.coder = coder;
             r.description = describe(coder, s.type);
             r.mode = section_mode_name(s, ht_residual_coding);
-            rows.push_back(r);
-            it = rows.end() - 1;
+            it = rows.insert(after == rows.rend() ? rows.end() : after.base(), r);
         }
         ++it->count;
-        if (s.stored_size == 0) ++it->empty;
+        // Zero-residual chunks have no bytes but are not empty.
+        if (s.stored_size == 0 && it->mode != "zero-residual") ++it->empty;
         it->stored_bytes += s.stored_size;
         it->raw_bytes += s.raw_size;
     }

@@ -103,7 +103,7 @@ TEST(ContainerCoders, HtAndMt) {
     write_container(make_sample_volume("marschner-lobb", Dims{9, 9, 9}), path, o);
     const ContainerInfo info = inspect_container(path).take();
     expect_partition(info);
-    ASSERT_EQ(info.coders.size(), 6u);
+    ASSERT_GE(info.coders.size(), 6u);  // and one row per chunk mode used
     EXPECT_EQ(row(info, "MT_HEADER")->coder, "stored");
     EXPECT_EQ(row(info, "MT_HEADER")->count, 1u);
     EXPECT_EQ(row(info, "MT_STRUCTURE")->coder, "mt-zstd-payload");

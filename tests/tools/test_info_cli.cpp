@@ -34,7 +34,7 @@ TEST(InfoCli, TextListsCodersAndBytes) {
     const CliRun r = run("info '" + path + "'");
     ASSERT_EQ(r.code, 0) << r.err;
     for (const char* s : {"coder", "METADATA", "zstd", "HT_HEADER", "stored", "HT_FIELD", "HT_ERRORS",
-                          "ht-range-v2", "ht-constant", "header+table"})
+                          "ht-range-v2", "ht-zero-residual", "ht-samples+zstd", "header+table"})
         EXPECT_TRUE(contains(r.out, s)) << s << "\n" << r.out;
     EXPECT_FALSE(contains(r.out, "MT_STRUCTURE")) << r.out;
 
@@ -67,7 +67,8 @@ TEST(InfoCli, JsonCodersAddUpToTheFile) {
     EXPECT_EQ(count, j["sections"].size());
     EXPECT_TRUE(coders["HT_FIELD"].count("ht-range-v2"));
     EXPECT_TRUE(coders["HT_ERRORS"].count("ht-range-v2"));
-    EXPECT_TRUE(modes["HT_FIELD"].count("range") && modes["HT_FIELD"].count("constant"));
+    // A sparse volume: zero chunks cost nothing (zero-residual), the blob range codes.
+    EXPECT_TRUE(modes["HT_FIELD"].count("range") && modes["HT_FIELD"].count("zero-residual"));
     EXPECT_TRUE(modes["HT_ERRORS"].count("range"));
     EXPECT_EQ(coders["MT_STRUCTURE"], std::set<std::string>{"mt-zstd-payload"});
     EXPECT_EQ(coders["MT_HEADER"], std::set<std::string>{"stored"});

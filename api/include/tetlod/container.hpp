@@ -140,11 +140,11 @@ struct SectionCoderInfo {
     std::string mode;
     std::string description;  // one line for people, naming the spec section
     uint64_t count = 0;       // sections of this type
-    uint64_t empty = 0;       // of them, with no stored bytes (empty chunks)
+    uint64_t empty = 0;       // of them, with no stored bytes (empty chunks; not zero-residual ones)
     uint64_t stored_bytes = 0, raw_bytes = 0;
 };
-/// One row per section type present, in the order the types first appear in
-/// the file. `ht_residual_coding`: the HT_HEADER's Residual_Coding (0: no HT).
+/// One row per section type (and coder) present, in the order the types first
+/// appear in the file, the rows of one type together. `ht_residual_coding`: the HT_HEADER's Residual_Coding (0: no HT).
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,
                                              int ht_residual_coding);
 /// The coder id of one section (as in SectionCoderInfo::coder).
