@@ -93,8 +93,9 @@ inline void keep_smaller(CodedSection& best, CodedSection cand) {
 }
 
 /// zstd at this level first: the samples mode is tried at the chunk's level
-/// (19 by default, ~10x slower) only when this frame comes near the range
-/// coder's size (level 19 saves well under 25% on chunks this small).
+/// (19 by default, ~10x slower) only when this frame comes within 25% of the
+/// range coder's size. Without the screen the 257^3 bench encode took 47 s
+/// instead of 5; with it no file of bench_container changed size.
 constexpr int kScreenZstdLevel = 3;
 
 /// The samples mode of a gathered chunk, when it may beat `range_size`.
