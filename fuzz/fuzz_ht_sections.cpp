@@ -3,6 +3,9 @@
 // (24 bytes, §6.1), then the chunk sections in file order. The harness frames them
 // with a valid header and table (types, cycles and bricks from the HT_HEADER's
 // geometry), so every mutation reaches the layout checks and the range decoders.
+// A chunk payload may start with "MODE", a byte f and a u64 raw size (format 3.0
+// chunk modes, spec §6.4): the section's table flags get mode f & 15, and ZSTD
+// when f & 16 (its raw size then that u64), so the mode checks are reached too.
 #include <cstddef>
 #include <algorithm>
 #include <cstdint>
@@ -43,8 +46,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             for (int a = 0; a < 3; ++a) nb = std::min(cap, nb * std::min(cap, std::max<int64_t>(1, (box[a] + side - 1) / side)));
             for (int64_t b = 0; b < nb && next + 1 < parts.size(); ++b) {
                 for (uint32_t type : {uint32_t(tlod::kSectionHtField), uint32_t(tlod::kSectionHtErrors)}) {
-                    const auto& p = parts[next++];
-                    w.add_stored(type, tlod::kSectionCritical, uint32_t(t), uint32_t(b), bytes(p), p.size());
+                    std::string_view p = parts[next++];
+                    uint32_t flags = tlod::kSectionCritical;
+                    uint64_t raw = 0;
+                    if (p.size() >= 13 && p.substr(0, 4) == "MODE") {
+                        const auto* q = reinterpret_cast<const std::byte*>(p.data());
+                        const uint8_t f = std::to_integer<uint8_t>(q[4]);
+                        flags |= uint32_t(f & 15) << tlod::kSectionModeShift;
+                        if (f & 16) flags |= tlod::kSectionZstd;
+                        raw = tlod::load_le(q + 5, 8);
+                        p.remove_prefix(13);
+                    }
+                    if (!(flags & tlod::kSectionZstd)) raw = p.size();
+                    w.add_stored(type, flags, uint32_t(t), uint32_t(b), bytes(p), raw);
                 }
             }
         }

@@ -16,6 +16,7 @@
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
+#include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 
@@ -42,23 +43,56 @@ Volume sample(Dims d, ValueType t, unsigned seed) {
 }
 
 /// The HT sections of a container, as the ht_sections target reads them.
-std::string ht_parts(const Volume& v, int brick_log2, bool pad) {
+/// Chunk sections (format 3.0) start with "MODE", the mode byte (| 16 when
+/// ZSTD) and the raw size, as fuzz_ht_sections.cpp reads them; samples
+/// sections are kept as their zstd frame. `mode`: the encoder's chunk_mode.
+std::string ht_parts(const Volume& v, int brick_log2, bool pad, int mode = -1) {
     HtBuildOptions bo;
     bo.pad = pad;
     HtModel m = HtModel::build(v, bo);
     tlod::ContainerWriter w;
     HtEncodeOptions eo;
     eo.brick_log2 = brick_log2;
+    eo.chunk_mode = mode;
     encode_ht(m, tlod::metadata_for_volume(v), w, eo);
     const auto file = w.finish();
     auto r = tlod::ContainerReader::from_memory(file);
     std::string out;
     for (std::size_t i = 0; i < r->sections().size(); ++i) {
-        auto s = r->read_section(i);
+        const tlod::SectionInfo& si = r->sections()[i];
+        const bool chunk = si.type == tlod::kSectionHtField || si.type == tlod::kSectionHtErrors;
+        auto s = chunk ? r->read_stored(i) : r->read_section(i);
         if (i) out += "@SEC";
+        if (chunk) {
+            std::vector<std::byte> head;
+            const uint8_t f = uint8_t(tlod::section_mode(si.flags) | ((si.flags & tlod::kSectionZstd) ? 16 : 0));
+            tlod::put_u8(head, f);
+            tlod::put_u64(head, si.raw_size);
+            out += "MODE";
+            out.append(reinterpret_cast<const char*>(head.data()), head.size());
+        }
         out.append(reinterpret_cast<const char*>(s->data()), s->size());
     }
     return out;
+}
+
+/// A u8 volume of zeros with a small blob: constant, samples and range chunks.
+Volume sparse(Dims d) {
+    Volume v = Volume::allocate(d, ValueType::U8);
+    for (int64_t z = 0; z < d.z; ++z)
+        for (int64_t y = 0; y < d.y; ++y)
+            for (int64_t x = 0; x < d.x; ++x)
+                if ((x - 3) * (x - 3) + (y - 3) * (y - 3) + (z - 2) * (z - 2) < 5) v.set_value(d.index(x, y, z), 9.0 * x);
+    return v;
+}
+
+/// A u16 ramp: exact predictions, zero-residual chunks.
+Volume linear(Dims d) {
+    Volume v = Volume::allocate(d, ValueType::U16);
+    for (int64_t z = 0; z < d.z; ++z)
+        for (int64_t y = 0; y < d.y; ++y)
+            for (int64_t x = 0; x < d.x; ++x) v.set_value(d.index(x, y, z), double(x + 2 * y + 3 * z));
+    return v;
 }
 
 std::string gzip(const std::string& raw) {
@@ -85,9 +119,16 @@ int main(int argc, char** argv) {
     const fs::path root = argv[1];
     for (const char* d : {"ht_sections", "mt", "metadata", "nrrd", "metaimage"}) fs::create_directories(root / d);
     // HT sections.
-    put(root / "ht_sections/u8_5x4x3_b1", ht_parts(sample({5, 4, 3}, ValueType::U8, 1), 1, false));
-    put(root / "ht_sections/i16_9x9x9_b2", ht_parts(sample({9, 9, 9}, ValueType::I16, 2), 2, false));
-    put(root / "ht_sections/f32_6x5x4_padded", ht_parts(sample({6, 5, 4}, ValueType::F32, 3), 1, true));
+    // (The seeds u8_5x4x3_b1, i16_9x9x9_b2 and f32_6x5x4_padded in the corpus
+    // are residual coding 2, written by the 2.x version of this program: kept
+    // as they are, the decoders still read coding 2.)
+    // Format 3.0: every chunk mode.
+    put(root / "ht_sections/v3_u8_5x4x3_b1", ht_parts(sample({5, 4, 3}, ValueType::U8, 1), 1, false));
+    put(root / "ht_sections/v3_i16_9x9x9_b2_samples", ht_parts(sample({9, 9, 9}, ValueType::I16, 2), 2, false, 2));
+    put(root / "ht_sections/v3_f32_6x5x4_padded_samples", ht_parts(sample({6, 5, 4}, ValueType::F32, 3), 1, true, 2));
+    put(root / "ht_sections/v3_u8_9x9x5_sparse", ht_parts(sparse({9, 9, 5}), 1, false));
+    put(root / "ht_sections/v3_u8_9x9x5_constant", ht_parts(sparse({9, 9, 5}), 1, false, 1));
+    put(root / "ht_sections/v3_u16_9x5x5_linear", ht_parts(linear({9, 5, 5}), 1, false, 3));
     // MT: stored bytes (mode 0) and header + raw payload (mode 1), with and without the field.
     for (auto [name, d, t] : {std::tuple{"u8_5x4x3", Dims{5, 4, 3}, ValueType::U8},
                               std::tuple{"f32_4x4x4", Dims{4, 4, 4}, ValueType::F32}}) {

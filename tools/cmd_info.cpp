@@ -89,6 +89,8 @@ int run_info(const InfoArgs& a) {
                                      {"stored_size", s.stored_size}, {"raw_size", s.raw_size},
                                      {"arg0", s.arg0}, {"arg1", s.arg1},
                                      {"coder", section_coder(s, info.ht_residual_coding)}});
+            const std::string mode = section_mode_name(s, info.ht_residual_coding);
+            if (!mode.empty()) j["sections"].back()["mode"] = mode;
         }
         // Issue 13: which coder each kind of section uses and what it costs.
         j["coders"] = nlohmann::json::array();
@@ -98,6 +100,9 @@ int run_info(const InfoArgs& a) {
                                    {"empty", c.empty}, {"stored_bytes", c.stored_bytes},
                                    {"raw_bytes", c.raw_bytes},
                                    {"share", double(c.stored_bytes) / double(h.file_size)}});
+        // Format 3.0: one row per chunk mode of each section kind, with its bytes.
+        for (std::size_t i = 0; i < info.coders.size(); ++i)
+            if (!info.coders[i].mode.empty()) j["coders"][i]["mode"] = info.coders[i].mode;
         j["framing_bytes"] = tlod::kHeaderSize + uint64_t{tlod::kTableEntrySize} * secs.size();
         j["bytes_read"] = info.bytes_read;
         // User metadata values are arbitrary bytes (spec): never fail on them.

@@ -17,6 +17,10 @@ std::string describe(const std::string& coder, uint32_t type) {
     if (coder == "mt-zstd-payload") return "7 streams in one zstd frame (§10.2)";
     if (coder == "unknown") return "unknown section type (skipped)";
     const bool field = type == tlod::kSectionHtField;
+    if (coder == "ht-constant") return "every value of the chunk equal: one value (§6.4)";
+    if (coder == "ht-samples+zstd") return "the chunk's values in point order, one zstd frame (§6.4)";
+    if (coder == "ht-samples") return "the chunk's values in point order, uncompressed (§6.4)";
+    if (coder == "ht-zero-residual") return "every value equals its prediction: no bytes (§6.4)";
     if (coder == "ht-range-v2")
         return field ? "neighbour prediction, adaptive range coder (§7.4-7.6)"
                      : "lattice-bound prediction, adaptive range coder (§8.3)";
@@ -33,6 +37,16 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
         case tlod::kSectionHtErrors:
             // Coding 2 forbids the ZSTD flag (§4.3), so the flag only matters for 1.
             if (ht_residual_coding == 2) return "ht-range-v2";
+            // Coding 3: the chunk mode in the table flags (§6.4); range is coding 2's coder.
+            if (ht_residual_coding == 3) {
+                switch (tlod::section_mode(s.flags)) {
+                    case 0: return "ht-range-v2";
+                    case 1: return "ht-constant";
+                    case 2: return zstd_flagged(s) ? "ht-samples+zstd" : "ht-samples";
+                    case 3: return "ht-zero-residual";
+                    default: return "unknown";
+                }
+            }
             return zstd_flagged(s) ? "ht-planes-v1+zstd" : "ht-planes-v1";
         case tlod::kSectionMtStructure:
             // Never flagged ZSTD: the frame is part of the MT's own encoding.
@@ -46,6 +60,13 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
     }
 }
 
+std::string section_mode_name(const tlod::SectionInfo& s, int ht_residual_coding) {
+    if (ht_residual_coding != 3 || (s.type != tlod::kSectionHtField && s.type != tlod::kSectionHtErrors)) return "";
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual"};
+    const uint32_t m = tlod::section_mode(s.flags);
+    return m < 4 ? names[m] : "unknown";
+}
+
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,
                                              int ht_residual_coding) {
     std::vector<SectionCoderInfo> rows;
@@ -54,16 +75,20 @@ std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo
         auto it = std::find_if(rows.begin(), rows.end(),
                                [&](const SectionCoderInfo& r) { return r.type == s.type && r.coder == coder; });
         if (it == rows.end()) {
+            // A new coder of a known type goes after that type's rows, so the
+            // modes of one section kind are listed together.
+            auto after = std::find_if(rows.rbegin(), rows.rend(), [&](const SectionCoderInfo& r) { return r.type == s.type; });
             SectionCoderInfo r;
             r.type = s.type;
             r.section = tlod::section_type_name(s.type);
             r.coder = coder;
             r.description = describe(coder, s.type);
-            rows.push_back(r);
-            it = rows.end() - 1;
+            r.mode = section_mode_name(s, ht_residual_coding);
+            it = rows.insert(after == rows.rend() ? rows.end() : after.base(), r);
         }
         ++it->count;
-        if (s.stored_size == 0) ++it->empty;
+        // Zero-residual chunks have no bytes but are not empty.
+        if (s.stored_size == 0 && it->mode != "zero-residual") ++it->empty;
         it->stored_bytes += s.stored_size;
         it->raw_bytes += s.raw_size;
     }

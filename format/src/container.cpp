@@ -183,7 +183,11 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
         s.checksum = t.u64();
         const std::string sec = where + "section " + std::to_string(i) + " (" +
                                 section_type_name(s.type) + "): ";
-        if (s.flags & ~kKnownSectionFlags)
+        // The chunk-mode bits exist only on HT chunk sections of 3.0 files;
+        // whether the mode fits the HT's coding is the HT layout's business.
+        const bool mode_bits_allowed = h.version_major >= kVersion3_0_Major &&
+                                       (s.type == kSectionHtField || s.type == kSectionHtErrors);
+        if (s.flags & ~(kKnownSectionFlags | (mode_bits_allowed ? kSectionModeMask : 0u)))
             return fail(ErrorCode::CorruptData, sec + "reserved flag bits are set");
         if (s.offset != expected_offset)
             return fail(ErrorCode::CorruptData, sec + "offset " + std::to_string(s.offset) +

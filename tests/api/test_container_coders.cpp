@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <set>
 #include <string>
 
 #include "tetlod/tetlod.hpp"
@@ -41,31 +42,58 @@ TEST(ContainerCoders, HtOnly) {
     write_container(make_sample_volume("sparse", Dims{33, 33, 33}), path);
     const ContainerInfo info = inspect_container(path).take();
     expect_partition(info);
-    EXPECT_EQ(info.ht_residual_coding, 2);
-    ASSERT_EQ(info.coders.size(), 4u);  // METADATA, HT_HEADER, HT_FIELD, HT_ERRORS
+    EXPECT_EQ(info.ht_residual_coding, 3);  // format 3.0: a mode per chunk section
     EXPECT_EQ(row(info, "METADATA")->coder, "zstd");
     EXPECT_EQ(row(info, "HT_HEADER")->coder, "stored");
-    const auto* field = row(info, "HT_FIELD");
-    const auto* errors = row(info, "HT_ERRORS");
-    ASSERT_TRUE(field && errors);
-    EXPECT_EQ(field->coder, "ht-range-v2");
-    EXPECT_EQ(errors->coder, "ht-range-v2");
+    // One row per (section kind, chunk mode): the rows of a kind add up to its sections.
+    uint64_t field_count = 0, error_count = 0, field_stored = 0, error_stored = 0, error_empty = 0;
+    std::set<std::string> modes;
+    for (const auto& c : info.coders) {
+        if (c.section != "HT_FIELD" && c.section != "HT_ERRORS") {
+            EXPECT_TRUE(c.mode.empty()) << c.section;
+            continue;
+        }
+        EXPECT_FALSE(c.mode.empty()) << c.coder;
+        modes.insert(c.mode);
+        const bool field = c.section == "HT_FIELD";
+        (field ? field_count : error_count) += c.count;
+        (field ? field_stored : error_stored) += c.stored_bytes;
+        if (!field) error_empty += c.empty;
+    }
+    // A sparse volume: zero chunks in a mode other than range.
+    EXPECT_GE(modes.size(), 2u);
+    EXPECT_TRUE(modes.count("range"));
     // One field and one error section per chunk; the corner chunk has no diamonds.
-    EXPECT_EQ(field->count, errors->count);
-    EXPECT_GE(errors->empty, 1u);
+    EXPECT_EQ(field_count, error_count);
+    EXPECT_GE(error_empty, 1u);
     uint64_t chunks = 0, field_bytes = 0, error_bytes = 0;
     for (const auto& c : info.ht->cycles) {
         chunks += c.chunks;
         field_bytes += c.field_bytes;
         error_bytes += c.error_bytes;
     }
-    EXPECT_EQ(field->count, chunks);
-    EXPECT_EQ(field->stored_bytes, field_bytes);
-    EXPECT_EQ(errors->stored_bytes, error_bytes);
+    EXPECT_EQ(field_count, chunks);
+    EXPECT_EQ(field_stored, field_bytes);
+    EXPECT_EQ(error_stored, error_bytes);
     for (const auto& s : info.sections) {
         const std::string c = section_coder(s, info.ht_residual_coding);
-        EXPECT_EQ(c, row(info, tlod::section_type_name(s.type))->coder);
+        bool found = false;
+        for (const auto& r : info.coders)
+            found = found || (r.type == s.type && r.coder == c && r.mode == section_mode_name(s, 3));
+        EXPECT_TRUE(found) << c;
     }
+}
+
+// Format 2.x (Residual_Coding 2): every chunk range coded, one row per kind.
+TEST(ContainerCoders, Version2Range) {
+    const std::string path = std::string(TETLOD_SPEC_DIR) + "/test-vectors/ht_v2_i16_17x17x17.tlod";
+    const ContainerInfo info = inspect_container(path).take();
+    expect_partition(info);
+    EXPECT_EQ(info.ht_residual_coding, 2);
+    ASSERT_EQ(info.coders.size(), 4u);
+    EXPECT_EQ(row(info, "HT_FIELD")->coder, "ht-range-v2");
+    EXPECT_EQ(row(info, "HT_ERRORS")->coder, "ht-range-v2");
+    EXPECT_TRUE(row(info, "HT_FIELD")->mode.empty());
 }
 
 TEST(ContainerCoders, HtAndMt) {
@@ -75,7 +103,7 @@ TEST(ContainerCoders, HtAndMt) {
     write_container(make_sample_volume("marschner-lobb", Dims{9, 9, 9}), path, o);
     const ContainerInfo info = inspect_container(path).take();
     expect_partition(info);
-    ASSERT_EQ(info.coders.size(), 6u);
+    ASSERT_GE(info.coders.size(), 6u);  // and one row per chunk mode used
     EXPECT_EQ(row(info, "MT_HEADER")->coder, "stored");
     EXPECT_EQ(row(info, "MT_HEADER")->count, 1u);
     EXPECT_EQ(row(info, "MT_STRUCTURE")->coder, "mt-zstd-payload");

@@ -78,7 +78,9 @@ std::vector<std::byte> small_v2(ValueType t = ValueType::U8) {
     Volume v = tlodtest::make_volume({9, 6, 5}, t, 7);
     HtModel m = HtModel::build(v);
     ContainerWriter w;
-    encode_ht(m, metadata_for_volume(v), w);
+    HtEncodeOptions o;
+    o.chunk_mode = 0;  // range mode wherever possible: these tests are about its rules
+    encode_ht(m, metadata_for_volume(v), w, o);
     return w.finish();
 }
 

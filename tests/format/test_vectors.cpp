@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -35,6 +36,10 @@ struct Vector {
     /// must go on decoding them. (2.1 changed nothing for HT-only files: the 2.0
     /// vectors stand; the 2.1 MT vectors are in test_mt_container.cpp.)
     bool current;
+    /// Format 3.0 (chunk modes, spec §6.4): the volume's shape and the forced
+    /// mode (-1: the encoder's choice), so that every mode occurs in a vector.
+    enum Shape { Noisy, Sparse, Linear, Constant } shape = Noisy;
+    int mode = -1;
 };
 
 // Named by model and format version.
@@ -46,7 +51,47 @@ const Vector kVectors[] = {
     {"ht_v2_i16_17x17x17", {17, 17, 17}, ValueType::I16, false, false},
     {"ht_v2_f32_6x5x4_padded", {6, 5, 4}, ValueType::F32, true, false},
     {"ht_v2_u16_33x20x9", {33, 20, 9}, ValueType::U16, false, false},
+    {"ht_v3_u8_9x6x5", {9, 6, 5}, ValueType::U8, false, true},
+    {"ht_v3_f32_6x5x4_padded", {6, 5, 4}, ValueType::F32, true, true},
+    {"ht_v3_i16_17x17x17_samples", {17, 17, 17}, ValueType::I16, false, true, Vector::Noisy, 2},
+    {"ht_v3_u8_33x20x9_sparse", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse},
+    {"ht_v3_u16_17x9x9_linear", {17, 9, 9}, ValueType::U16, false, true, Vector::Linear, 3},
+    {"ht_v3_u8_9x9x5_constant", {9, 9, 5}, ValueType::U8, false, true, Vector::Constant, 1},
 };
+
+/// The vector's volume: the noisy test volume, or a sparse blob on zeros, or
+/// a linear ramp (its chunks mostly exact predictions: zero-residual), or a
+/// constant.
+Volume vector_volume(const Vector& v) {
+    if (v.shape == Vector::Noisy) return tlodtest::make_volume(v.dims, v.type, 42);
+    Volume vol = Volume::allocate(v.dims, v.type);
+    dispatch_value_type(v.type, [&](auto tv) {
+        using T = decltype(tv);
+        for (int64_t z = 0; z < v.dims.z; ++z)
+            for (int64_t y = 0; y < v.dims.y; ++y)
+                for (int64_t x = 0; x < v.dims.x; ++x) {
+                    const int64_t r2 = (x - 20) * (x - 20) + (y - 9) * (y - 9) + (z - 4) * (z - 4);
+                    const int64_t val = v.shape == Vector::Sparse   ? (r2 < 16 ? 200 - 9 * r2 : 0)
+                                        : v.shape == Vector::Linear ? 3 * x + 5 * y + 7 * z
+                                                                    : 77;
+                    vol.as<T>()[v.dims.index(x, y, z)] = T(val);
+                }
+    });
+    return vol;
+}
+
+/// Sections per chunk mode (table Flags bits 8-11), HT_FIELD then HT_ERRORS.
+nlohmann::json chunk_modes(const tlod::ContainerReader& r) {
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual"};
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& s : r.sections())
+        if (s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors) {
+            const uint32_t m = tlod::section_mode(s.flags);
+            auto& slot = j[tlod::section_type_name(s.type)][m < 4 ? names[m] : "unknown"];
+            slot = slot.is_null() ? 1 : slot.get<int>() + 1;
+        }
+    return j;
+}
 
 std::string dir() { return std::string(TETLOD_SPEC_DIR) + "/test-vectors/"; }
 
@@ -55,10 +100,10 @@ std::vector<char> slurp(const std::string& p) {
     return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m) {
+std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m, const nlohmann::json& modes) {
     std::ostringstream o;
     o.precision(17);
-    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.current ? "2.0" : "1.0") << "\",\n"
+    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.current ? "3.0" : "1.0") << "\",\n"
       << "  \"dims\": [" << m.dims.x << ", " << m.dims.y << ", " << m.dims.z << "],\n"
       << "  \"value_type\": \"" << value_type_name(m.type) << "\",\n"
       << "  \"spacing\": [" << m.spacing[0] << ", " << m.spacing[1] << ", " << m.spacing[2] << "],\n"
@@ -80,7 +125,7 @@ std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metada
         o << (first ? "\n" : ",\n") << "    \"" << k << "\": \"" << val << "\"";
         first = false;
     }
-    o << "\n  }\n}\n";
+    o << "\n  },\n  \"chunk_modes\": " << modes.dump() << "\n}\n";
     return o.str();
 }
 
@@ -92,7 +137,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
         const std::string base = dir() + v.name;
         if (regen && v.current) {
             std::filesystem::create_directories(dir());
-            Volume vol = tlodtest::make_volume(v.dims, v.type, 42);
+            Volume vol = vector_volume(v);
             vol.field_name = "density";
             vol.units = "e/A^3";
             vol.spacing = {0.5, 1.0, 2.0};
@@ -105,6 +150,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
             HtModel m = HtModel::build(vol, bo);
             HtEncodeOptions eo;
             eo.brick_log2 = 1;  // several bricks per cycle even at this size
+            eo.chunk_mode = v.mode;
             write_ht_container(base + ".tlod", m, meta, eo);
             write_file_atomic(base + ".raw", vol.data.data(), vol.data.size());
             auto r = tlod::ContainerReader::open(base + ".tlod");
@@ -113,7 +159,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
             write_file_atomic(base + ".errors.f32", d->errors.data(), d->errors.size() * 4);
             auto r2 = tlod::ContainerReader::open(base + ".tlod");
             auto lay = read_ht_layout(*r2);
-            std::string js = expected_json(v, vol, lay->metadata);
+            std::string js = expected_json(v, vol, lay->metadata, chunk_modes(*r2));
             write_file_atomic(base + ".json", js.data(), js.size());
         }
         if (!std::filesystem::exists(base + ".tlod")) GTEST_SKIP() << "no test vectors in " << dir();
@@ -173,6 +219,7 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
         EXPECT_EQ(le(48, 8), XXH64(f + 64, nsec * 48, 0));   // table checksum
         uint64_t next = 64 + nsec * 48;
         std::vector<unsigned char> metadata;
+        std::map<std::string, std::map<std::string, int>> modes;  // 3.0: from the flags' bits 8-11
         for (uint64_t i = 0; i < nsec; ++i) {
             const std::size_t e = 64 + i * 48;
             const uint64_t type = le(e, 4), flags = le(e + 4, 4), off = le(e + 8, 8), stored = le(e + 16, 8),
@@ -187,9 +234,25 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
                 else
                     std::memcpy(metadata.data(), f + off, raw);
             }
+            if (le(8, 2) >= 3 && (type == 3 || type == 4)) {
+                const char* names[] = {"range", "constant", "samples", "zero-residual"};
+                const uint64_t mode = (flags >> 8) & 15;
+                ASSERT_LT(mode, 4u) << "section " << i;
+                ++modes[type == 3 ? "HT_FIELD" : "HT_ERRORS"][names[mode]];
+                if (mode == 2) {  // samples: raw size = values x bytes, the frame's content size too
+                    ASSERT_TRUE(flags & 1);
+                    EXPECT_EQ(ZSTD_getFrameContentSize(f + off, stored), raw) << "section " << i;
+                }
+            } else {
+                EXPECT_EQ(flags >> 2, 0u) << "section " << i;  // no mode bits before 3.0
+            }
             next = off + stored;
         }
         EXPECT_EQ(next, fc.size());
+        if (j.contains("chunk_modes")) {
+            const auto expected = j["chunk_modes"].get<std::map<std::string, std::map<std::string, int>>>();
+            EXPECT_EQ(modes, expected);
+        }
         ASSERT_GE(metadata.size(), 88u);
         auto mle = [&](std::size_t off, int n) {
             uint64_t x = 0;

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -33,7 +34,7 @@ TEST(InfoCli, TextListsCodersAndBytes) {
     const CliRun r = run("info '" + path + "'");
     ASSERT_EQ(r.code, 0) << r.err;
     for (const char* s : {"coder", "METADATA", "zstd", "HT_HEADER", "stored", "HT_FIELD", "HT_ERRORS",
-                          "ht-range-v2", "header+table"})
+                          "ht-range-v2", "ht-zero-residual", "ht-samples+zstd", "header+table"})
         EXPECT_TRUE(contains(r.out, s)) << s << "\n" << r.out;
     EXPECT_FALSE(contains(r.out, "MT_STRUCTURE")) << r.out;
 
@@ -52,20 +53,30 @@ TEST(InfoCli, JsonCodersAddUpToTheFile) {
         EXPECT_TRUE(j.contains(k)) << k;
     ASSERT_TRUE(j.contains("coders"));
     uint64_t stored = 0, count = 0;
-    std::map<std::string, std::string> coder;
+    // Section kind -> its rows' coders (format 3.0: one row per chunk mode).
+    std::map<std::string, std::set<std::string>> coders;
+    std::map<std::string, std::set<std::string>> modes;
     for (const auto& c : j["coders"]) {
         stored += c["stored_bytes"].get<uint64_t>();
         count += c["count"].get<uint64_t>();
-        coder[c["section"].get<std::string>()] = c["coder"].get<std::string>();
+        coders[c["section"].get<std::string>()].insert(c["coder"].get<std::string>());
+        if (c.contains("mode")) modes[c["section"].get<std::string>()].insert(c["mode"].get<std::string>());
         EXPECT_GE(c["share"].get<double>(), 0.0);
     }
     EXPECT_EQ(stored + j["framing_bytes"].get<uint64_t>(), j["file_size"].get<uint64_t>());
     EXPECT_EQ(count, j["sections"].size());
-    EXPECT_EQ(coder["HT_FIELD"], "ht-range-v2");
-    EXPECT_EQ(coder["HT_ERRORS"], "ht-range-v2");
-    EXPECT_EQ(coder["MT_STRUCTURE"], "mt-zstd-payload");
-    EXPECT_EQ(coder["MT_HEADER"], "stored");
-    EXPECT_EQ(coder["METADATA"], "zstd");
-    // Each section names its coder too, the same as its row.
-    for (const auto& s : j["sections"]) EXPECT_EQ(s["coder"], coder[s["type"].get<std::string>()]) << s;
+    EXPECT_TRUE(coders["HT_FIELD"].count("ht-range-v2"));
+    EXPECT_TRUE(coders["HT_ERRORS"].count("ht-range-v2"));
+    // A sparse volume: zero chunks cost nothing (zero-residual), the blob range codes.
+    EXPECT_TRUE(modes["HT_FIELD"].count("range") && modes["HT_FIELD"].count("zero-residual"));
+    EXPECT_TRUE(modes["HT_ERRORS"].count("range"));
+    EXPECT_EQ(coders["MT_STRUCTURE"], std::set<std::string>{"mt-zstd-payload"});
+    EXPECT_EQ(coders["MT_HEADER"], std::set<std::string>{"stored"});
+    EXPECT_EQ(coders["METADATA"], std::set<std::string>{"zstd"});
+    // Each section names its coder (and, for HT chunks, its mode) too, one of its kind's rows.
+    for (const auto& s : j["sections"]) {
+        const std::string type = s["type"].get<std::string>();
+        EXPECT_TRUE(coders[type].count(s["coder"].get<std::string>())) << s;
+        EXPECT_EQ(s.contains("mode"), type == "HT_FIELD" || type == "HT_ERRORS") << s;
+    }
 }

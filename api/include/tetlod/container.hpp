@@ -130,27 +130,34 @@ struct MtInfo {
 };
 /// The sections of one type coded one way, summed (issue 13: where the bytes
 /// go). The coder follows from the section's type, its ZSTD flag and, for the
-/// HT chunks, the HT_HEADER's Residual_Coding: every chunk of a file is coded
-/// the same way (the format has no per-chunk choice yet), so one row per
-/// section type is the whole story, known without decoding anything.
+/// HT chunks, the HT_HEADER's Residual_Coding and (coding 3, format 3.0) the
+/// chunk mode in the table flags: one row per section type and coder (so per
+/// mode), known without decoding anything.
 struct SectionCoderInfo {
     uint32_t type = 0;        // tlod::SectionType (or an unknown id)
     std::string section;      // tlod::section_type_name(type)
     /// Short stable id: "stored", "zstd", "ht-range-v2" (HT_FIELD, HT_ERRORS of
     /// coding 2), "ht-planes-v1" (coding 1 byte planes; "+zstd" when flagged),
-    /// "mt-zstd-payload" (MT_STRUCTURE), "unknown".
+    /// "mt-zstd-payload" (MT_STRUCTURE), "unknown"; coding 3 chunk modes:
+    /// "ht-range-v2", "ht-constant", "ht-samples+zstd", "ht-samples",
+    /// "ht-zero-residual".
     std::string coder;
+    /// Coding 3 HT chunks: the chunk mode ("range", "constant", "samples",
+    /// "zero-residual"); empty for every other section.
+    std::string mode;
     std::string description;  // one line for people, naming the spec section
     uint64_t count = 0;       // sections of this type
-    uint64_t empty = 0;       // of them, with no stored bytes (empty chunks)
+    uint64_t empty = 0;       // of them, with no stored bytes (empty chunks; not zero-residual ones)
     uint64_t stored_bytes = 0, raw_bytes = 0;
 };
-/// One row per section type present, in the order the types first appear in
-/// the file. `ht_residual_coding`: the HT_HEADER's Residual_Coding (0: no HT).
+/// One row per section type (and coder) present, in the order the types first
+/// appear in the file, the rows of one type together. `ht_residual_coding`: the HT_HEADER's Residual_Coding (0: no HT).
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,
                                              int ht_residual_coding);
 /// The coder id of one section (as in SectionCoderInfo::coder).
 std::string section_coder(const tlod::SectionInfo& section, int ht_residual_coding);
+/// The chunk mode of an HT chunk section of coding 3 (as SectionCoderInfo::mode).
+std::string section_mode_name(const tlod::SectionInfo& section, int ht_residual_coding);
 
 /// Everything `tetlod info` shows: header, metadata, models, section table.
 struct ContainerInfo {

@@ -2,8 +2,7 @@
 // decode and the lazy extraction).
 #include "ht_chunk_decoder.hpp"
 
-#include "ht_error_chunk_coder.hpp"
-#include "ht_field_chunk_coder.hpp"
+#include "ht_chunk_modes.hpp"
 #include "ht_residual_v1.hpp"
 
 namespace tetlod::ht_detail {
@@ -56,6 +55,25 @@ Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L,
     auto where = [&](uint32_t section) { return r.name() + ": section " + std::to_string(section) + ": "; };
     auto raw = unpack(field_stored, r.sections()[c.field_section]);
     if (!raw) return with_context(where(c.field_section), raw.failure());
+    if (L.residual_coding == kResidualChunkModes) {
+        const tlod::SectionInfo& fsi = r.sections()[c.field_section];
+        const std::string fbad = dispatch_value_type(type, [&](auto tv) {
+            using T = decltype(tv);
+            return decode_field_chunk_v3<T>(G, static_cast<T*>(field), c, tlod::section_mode(fsi.flags), *raw);
+        });
+        if (!fbad.empty()) return fail(ErrorCode::CorruptData, where(c.field_section) + fbad);
+        if (!errors) return Failure{ErrorCode::Ok, {}};
+        const tlod::SectionInfo& esi = r.sections()[c.error_section];
+        auto er = unpack(error_stored, esi);
+        if (!er) return with_context(where(c.error_section), er.failure());
+        const std::string ebad = dispatch_value_type(type, [&](auto tv) {
+            using T = decltype(tv);
+            return decode_error_chunk_v3<T>(G, static_cast<const T*>(field), errors, c, m,
+                                            tlod::section_mode(esi.flags), *er);
+        });
+        if (!ebad.empty()) return fail(ErrorCode::CorruptData, where(c.error_section) + ebad);
+        return Failure{ErrorCode::Ok, {}};
+    }
     const bool field_ok = dispatch_value_type(type, [&](auto tv) {
         using T = decltype(tv);
         if (L.residual_coding == kResidualZigzagPlanes) {

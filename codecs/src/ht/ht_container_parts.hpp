@@ -20,7 +20,7 @@ inline std::vector<std::byte> ht_header_bytes(const HtDomain& d, int g, int m) {
     tlod::put_u8(h, uint8_t(g));
     tlod::put_u8(h, uint8_t(m));
     tlod::put_u8(h, kPredictorNeighbours);
-    tlod::put_u8(h, kResidualRangeCoder);
+    tlod::put_u8(h, 3);  // Residual_Coding 3: a mode per chunk section (§6.4)
     tlod::put_u16(h, 0);
     for (int a = 0; a < 3; ++a) tlod::put_u32(h, uint32_t(d.box_max[a]));
     tlod::put_u32(h, 0);

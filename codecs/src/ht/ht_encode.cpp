@@ -4,8 +4,7 @@
 
 #include "ht_chunk_geometry.hpp"
 #include "ht_container_parts.hpp"
-#include "ht_error_chunk_coder.hpp"
-#include "ht_field_chunk_coder.hpp"
+#include "ht_chunk_modes.hpp"
 
 namespace tetlod {
 
@@ -37,33 +36,27 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     const auto hh = ht_header_bytes(d, o.brick_log2, m);
     writer.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
 
-    std::vector<std::vector<std::byte>> fs(chunks.size()), es(chunks.size());
-    std::vector<uint64_t> fraw(chunks.size()), eraw(chunks.size());
+    std::vector<CodedSection> fs(chunks.size()), es(chunks.size());
+    const ChunkModeChoice choice{o.chunk_mode, o.chunk_zstd_level};
     // Parallel over chunks in batches so progress is reported from this thread.
+    // Each chunk's mode depends on that chunk alone: same bytes for any thread count.
     const std::size_t batch = 64;
     for (std::size_t s = 0; s < chunks.size(); s += batch) {
         const std::size_t e = std::min(chunks.size(), s + batch);
         tbb::parallel_for(s, e, [&](std::size_t i) {
-            auto raw = dispatch_value_type(f.type, [&](auto tv) {
+            dispatch_value_type(f.type, [&](auto tv) {
                 using T = decltype(tv);
-                return encode_field_chunk_v2<T>(G, f.as<T>(), chunks[i]);
+                fs[i] = encode_field_chunk_v3<T>(G, f.as<T>(), chunks[i], choice);
+                es[i] = encode_error_chunk_v3<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m, choice);
             });
-            fraw[i] = raw.size();
-            fs[i] = std::move(raw);
-            auto er = dispatch_value_type(f.type, [&](auto tv) {
-                using T = decltype(tv);
-                return encode_error_chunk_v2<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m);
-            });
-            eraw[i] = er.size();
-            es[i] = std::move(er);
         });
         if (o.progress) o.progress(e, chunks.size());
     }
     for (std::size_t i = 0; i < chunks.size(); ++i) {
-        writer.add_stored(tlod::kSectionHtField, tlod::kSectionCritical,
-                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(fs[i]), fraw[i]);
-        writer.add_stored(tlod::kSectionHtErrors, tlod::kSectionCritical,
-                          uint32_t(chunks[i].cycle), chunks[i].brick, std::move(es[i]), eraw[i]);
+        writer.add_stored(tlod::kSectionHtField, fs[i].flags, uint32_t(chunks[i].cycle), chunks[i].brick,
+                          std::move(fs[i].bytes), fs[i].raw_size);
+        writer.add_stored(tlod::kSectionHtErrors, es[i].flags, uint32_t(chunks[i].cycle), chunks[i].brick,
+                          std::move(es[i].bytes), es[i].raw_size);
     }
 }
 

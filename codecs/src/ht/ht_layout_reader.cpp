@@ -1,10 +1,42 @@
 // The HT layout of a container: METADATA and HT_HEADER validated, the chunk
 // sections matched to the chunk list (spec §6).
-#include "ht_chunk_geometry.hpp"
+#include <optional>
+#include <utility>
+
+#include "ht_chunk_modes.hpp"
 
 namespace tetlod {
 
 using namespace ht_detail;
+
+namespace {
+
+/// Spec §6.4: what a coding-3 chunk section's mode requires of its sizes
+/// (range-mode sections then pass the coding-2 checks). `w`: bytes per value.
+std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::SectionInfo& s, uint64_t n, uint64_t w,
+                                                                   bool field) {
+    const uint32_t mode = tlod::section_mode(s.flags);
+    const bool zstd = (s.flags & tlod::kSectionZstd) != 0;
+    auto bad = [](std::string m) { return std::optional{std::pair{ErrorCode::CorruptData, std::move(m)}}; };
+    if (mode > kModeZeroResidual || (mode == kModeZeroResidual && !field))
+        return std::optional{std::pair{ErrorCode::UnsupportedFeature,
+                                       "unknown chunk mode " + std::to_string(mode) +
+                                           (field ? "" : " for error codes")}};
+    if (n == 0 && (mode != kModeRange || s.raw_size != 0)) return bad("an empty chunk must be an empty range-mode section");
+    if (zstd && mode != kModeSamples) return bad(std::string(chunk_mode_name(mode)) + " chunks must not be zstd-compressed");
+    if ((mode == kModeConstant || mode == kModeZeroResidual) && n > kMaxModelledPoints)
+        return bad(std::string(chunk_mode_name(mode)) + " chunk of " + std::to_string(n) + " values (at most 2^22)");
+    if (mode == kModeConstant && s.raw_size != w)
+        return bad("constant chunk of " + std::to_string(s.raw_size) + " bytes, expected " + std::to_string(w));
+    if (mode == kModeZeroResidual && s.raw_size != 0) return bad("zero-residual chunk with stored bytes");
+    // n * w cannot overflow: n is a chunk's point count (< 2^35), w <= 8.
+    if (mode == kModeSamples && s.raw_size != n * w)
+        return bad("samples chunk of " + std::to_string(s.raw_size) + " raw bytes, the chunk's " + std::to_string(n) +
+                   " values need " + std::to_string(n * w));
+    return std::nullopt;
+}
+
+}  // namespace
 
 Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     const std::string where = r.name() + ": ";
@@ -46,7 +78,7 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     if (flags & ~1u) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved flag bits set");
     if (res0 || res1) return fail(ErrorCode::CorruptData, where + "HT_HEADER: reserved fields not zero");
     if (!(predictor == kPredictorCoarseMean && coding == kResidualZigzagPlanes) &&
-        !(predictor == kPredictorNeighbours && coding == kResidualRangeCoder))
+        !(predictor == kPredictorNeighbours && (coding == kResidualRangeCoder || coding == kResidualChunkModes)))
         return fail(ErrorCode::UnsupportedFeature, where + "HT_HEADER: unknown predictor or residual coding");
     L.residual_coding = coding;
     if (L.brick_log2 < 1 || L.brick_log2 > 16 || L.error_mantissa_bits > 7)
@@ -99,9 +131,20 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
         }
         // Coding 2 (spec §7.5): stored range-coder streams, never zstd; the
         // point count is bounded by the stream length before anything is allocated.
+        // Coding 3 (§6.4): the same for range-mode chunks; the other modes'
+        // sizes are fixed by the chunk's point count, checked here.
         for (const auto& [si, count] : {std::pair{c.field_section, c.points}, std::pair{c.error_section, c.diamonds}}) {
             const auto& s = secs[si];
             const std::string sec = where + "section " + std::to_string(si) + ": ";
+            if (L.residual_coding == kResidualChunkModes) {
+                if (auto bad = check_chunk_mode(s, count, si == c.field_section ? uint64_t(W) : 2,
+                                                si == c.field_section))
+                    return fail(bad->first, sec + bad->second);
+                if (tlod::section_mode(s.flags) != kModeRange) continue;
+            } else if (s.flags & tlod::kSectionModeMask) {
+                return fail(ErrorCode::CorruptData, sec + "chunk mode bits set in a file of residual coding " +
+                                                        std::to_string(L.residual_coding));
+            }
             if (s.flags & tlod::kSectionZstd)
                 return fail(ErrorCode::CorruptData, sec + "range-coded HT chunks must not be zstd-compressed");
             if ((count == 0) != (s.raw_size == 0) || (count > 0 && s.raw_size < 5))

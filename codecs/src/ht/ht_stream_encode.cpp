@@ -25,8 +25,7 @@
 
 #include "ht_chunk_geometry.hpp"
 #include "ht_container_parts.hpp"
-#include "ht_error_chunk_coder.hpp"
-#include "ht_field_chunk_coder.hpp"
+#include "ht_chunk_modes.hpp"
 #include "tetlod/core/huge_page_allocator.hpp"
 #include "tetlod/models/ht/ht_error_sweep.hpp"
 
@@ -174,8 +173,9 @@ std::vector<std::byte> scan_box(BoxPlanes& planes_, const HtDomain& d_, const Ge
 
 /// Where one chunk's two sections lie in the spill file.
 struct SpilledChunk {
-    uint64_t field_offset = 0, field_size = 0, field_checksum = 0;
-    uint64_t error_offset = 0, error_size = 0, error_checksum = 0;
+    uint64_t field_offset = 0, field_size = 0, field_checksum = 0, field_raw = 0;
+    uint64_t error_offset = 0, error_size = 0, error_checksum = 0, error_raw = 0;
+    uint32_t field_flags = 0, error_flags = 0;
 };
 
 template <class T>
@@ -358,12 +358,13 @@ private:
         const auto nb = G_.bricks(r.t);
         const std::size_t per_row = std::size_t(nb[0] * nb[1]);
         const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
-        std::vector<std::vector<std::byte>> fs(per_row), es(per_row);
+        std::vector<CodedSection> fs(per_row), es(per_row);
         const std::span<const float> errors(r.errors);
+        const ChunkModeChoice choice{o_.encode.chunk_mode, o_.encode.chunk_zstd_level};
         tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
             const HtChunk& c = chunks_[base + j];
-            fs[j] = encode_field_chunk_v2<T>(r.window, r.values.data(), c);
-            es[j] = encode_error_chunk_v2<T>(r.window, r.values.data(), errors, c, m_);
+            fs[j] = encode_field_chunk_v3<T>(r.window, r.values.data(), c, choice);
+            es[j] = encode_error_chunk_v3<T>(r.window, r.values.data(), errors, c, m_, choice);
         });
         if (!r.errors.empty()) {
             // The row's errors, plane by plane, at the centres of cycle t only
@@ -385,13 +386,17 @@ private:
         for (std::size_t j = 0; j < per_row; ++j) {
             SpilledChunk& s = spilled_[base + j];
             s.field_offset = spill_.size();
-            s.field_size = fs[j].size();
-            s.field_checksum = tlod::checksum64(fs[j]);
-            spill_.write(fs[j].data(), fs[j].size());
+            s.field_size = fs[j].bytes.size();
+            s.field_raw = fs[j].raw_size;
+            s.field_flags = fs[j].flags;
+            s.field_checksum = tlod::checksum64(fs[j].bytes);
+            spill_.write(fs[j].bytes.data(), fs[j].bytes.size());
             s.error_offset = spill_.size();
-            s.error_size = es[j].size();
-            s.error_checksum = tlod::checksum64(es[j]);
-            spill_.write(es[j].data(), es[j].size());
+            s.error_size = es[j].bytes.size();
+            s.error_raw = es[j].raw_size;
+            s.error_flags = es[j].flags;
+            s.error_checksum = tlod::checksum64(es[j].bytes);
+            spill_.write(es[j].bytes.data(), es[j].bytes.size());
         }
         // Slide: the next row's window starts h below it; keep the planes from there.
         const int64_t old = r.wlo;
@@ -421,10 +426,10 @@ private:
         for (std::size_t i = 0; i < chunks_.size(); ++i) {
             const HtChunk& c = chunks_[i];
             const SpilledChunk& s = spilled_[i];
-            w.add_spilled(tlod::kSectionHtField, tlod::kSectionCritical, uint32_t(c.cycle), c.brick, spill_,
-                          s.field_offset, s.field_size, s.field_size, s.field_checksum);
-            w.add_spilled(tlod::kSectionHtErrors, tlod::kSectionCritical, uint32_t(c.cycle), c.brick, spill_,
-                          s.error_offset, s.error_size, s.error_size, s.error_checksum);
+            w.add_spilled(tlod::kSectionHtField, s.field_flags, uint32_t(c.cycle), c.brick, spill_,
+                          s.field_offset, s.field_size, s.field_raw, s.field_checksum);
+            w.add_spilled(tlod::kSectionHtErrors, s.error_flags, uint32_t(c.cycle), c.brick, spill_,
+                          s.error_offset, s.error_size, s.error_raw, s.error_checksum);
         }
         w.write(path_);
     }

@@ -25,8 +25,12 @@ inline constexpr uint16_t kVersion2_0_Minor = 0;
 /// 2.1: the MT model (feature bit 1, MT_HEADER and MT_STRUCTURE sections).
 inline constexpr uint16_t kVersion2_1_Major = 2;
 inline constexpr uint16_t kVersion2_1_Minor = 1;
-inline constexpr uint16_t kVersionMajor = kVersion2_1_Major;  // what this library writes
-inline constexpr uint16_t kVersionMinor = kVersion2_1_Minor;
+/// 3.0: HT residual coding 3, a mode per HT chunk section (table Flags bits 8-11:
+/// range, constant, samples, zero-residual). Older readers must refuse it.
+inline constexpr uint16_t kVersion3_0_Major = 3;
+inline constexpr uint16_t kVersion3_0_Minor = 0;
+inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
+inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;
 /// Oldest major version this library still reads (1.x files decode unchanged).
 inline constexpr uint16_t kOldestReadableMajor = kVersion1_0_Major;
 /// "tlod-format 2.0": for --version output.
@@ -61,6 +65,12 @@ const char* section_type_name(uint32_t type);
 inline constexpr uint32_t kSectionZstd = 1u << 0;      // stored bytes are one zstd frame
 inline constexpr uint32_t kSectionCritical = 1u << 1;  // readers must understand the type
 inline constexpr uint32_t kKnownSectionFlags = kSectionZstd | kSectionCritical;
+/// Since 3.0, HT_FIELD and HT_ERRORS sections carry their chunk mode in Flags
+/// bits 8-11 (spec §6.4): in the table, so a reader checks a chunk's sizes
+/// against its mode before reading it and `info` lists modes without reading.
+inline constexpr uint32_t kSectionModeShift = 8;
+inline constexpr uint32_t kSectionModeMask = 0xFu << kSectionModeShift;
+inline uint32_t section_mode(uint32_t flags) { return (flags & kSectionModeMask) >> kSectionModeShift; }
 
 struct Header {
     uint16_t version_major = kVersionMajor;

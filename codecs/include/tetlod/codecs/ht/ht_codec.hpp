@@ -28,6 +28,12 @@ struct HtEncodeOptions {
     /// Mantissa bits kept by the error quantizer, 0..7 (spec §8): the stored
     /// bound exceeds the true error by less than a factor 1 + 2^-m.
     int error_mantissa_bits = 4;
+    /// Chunk modes (spec §6.4): -1 codes every chunk section in the smallest
+    /// mode; 0 range, 1 constant, 2 samples, 3 zero-residual force that mode
+    /// wherever it can code the chunk (tests), range elsewhere.
+    int chunk_mode = -1;
+    /// zstd level of the samples mode (the per-chunk fallback).
+    int chunk_zstd_level = 19;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
 };
@@ -124,7 +130,8 @@ struct HtLayout {
     int brick_log2 = 0;
     int error_mantissa_bits = 0;
     /// HT_HEADER Residual_Coding: 1 = zigzag byte planes + zstd (format 1.x),
-    /// 2 = class-ordered range coding (format 2.x).
+    /// 2 = class-ordered range coding (format 2.x), 3 = a mode per chunk
+    /// section, one of them range coding 2 (format 3.x).
     int residual_coding = 2;
     std::vector<HtChunk> chunks;  // file order: cycle k first, then k-1, ..., 0
 };

@@ -1,0 +1,245 @@
+#pragma once
+// Residual coding 3 (spec §6.4): every HT chunk section carries a mode in its
+// table Flags, chosen per chunk by the encoder as the smallest of
+//   range          the coding-2 stream (§7.5-§8.3), unchanged;
+//   constant       every value of the chunk is the same: that one value;
+//   samples        the values themselves in point order, in a zstd frame
+//                  (the fallback: no chunk costs much more than zstd of it);
+//   zero-residual  (field only) every value equals its prediction: no bytes.
+// Range coding wins on most chunks; the others bound the cost of constant,
+// sparse and incompressible chunks, where the range coder loses to zstd.
+#include <algorithm>
+#include <cstring>
+#include <optional>
+#include <string>
+
+#include "ht_error_chunk_coder.hpp"
+#include "ht_field_chunk_coder.hpp"
+#include "tetlod/format/container.hpp"
+
+namespace tetlod::ht_detail {
+
+constexpr uint8_t kResidualChunkModes = 3;
+
+enum ChunkMode : uint32_t { kModeRange = 0, kModeConstant = 1, kModeSamples = 2, kModeZeroResidual = 3 };
+/// Spec §6.4: constant and zero-residual chunks hold at most 2^22 values, so
+/// a chunk (96 bytes of table entries at least) expands no more than a zstd frame.
+constexpr uint64_t kMaxModelledPoints = uint64_t{1} << 22;
+
+inline const char* chunk_mode_name(uint32_t mode) {
+    switch (mode) {
+        case kModeRange: return "range";
+        case kModeConstant: return "constant";
+        case kModeSamples: return "samples";
+        case kModeZeroResidual: return "zero-residual";
+        default: return "unknown";
+    }
+}
+
+/// One coded chunk section: its stored bytes, raw size and table flags.
+struct CodedSection {
+    std::vector<std::byte> bytes;
+    uint64_t raw_size = 0;
+    uint32_t flags = tlod::kSectionCritical;
+};
+
+inline CodedSection coded(std::vector<std::byte> bytes, uint32_t mode, bool zstd = false, uint64_t raw = 0) {
+    CodedSection s;
+    s.raw_size = zstd ? raw : bytes.size();
+    s.bytes = std::move(bytes);
+    s.flags = tlod::kSectionCritical | (mode << tlod::kSectionModeShift) | (zstd ? tlod::kSectionZstd : 0u);
+    return s;
+}
+
+/// Little-endian bytes of `w` bytes of v (the spec's byte order on any host).
+inline void put_le(std::byte* out, uint64_t v, int w) {
+    for (int i = 0; i < w; ++i) out[i] = std::byte(uint8_t(v >> (8 * i)));
+}
+inline uint64_t get_le(const std::byte* in, int w) {
+    uint64_t v = 0;
+    for (int i = 0; i < w; ++i) v |= uint64_t(uint8_t(in[i])) << (8 * i);
+    return v;
+}
+
+/// The chunk's values in point order (§6.2), `w` bytes each, little-endian;
+/// `bits(idx)` gives the value at a field index.
+template <class Bits>
+std::vector<std::byte> gather_chunk(const Geometry& G, const HtChunk& c, int w, Bits&& bits) {
+    std::vector<std::byte> out(std::size_t(c.points) * std::size_t(w));
+    std::byte* p = out.data();
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        put_le(p, bits(G.index(x, y, z)), w);
+        p += w;
+    });
+    return out;
+}
+
+inline bool all_equal(const std::vector<std::byte>& raw, int w) {
+    for (std::size_t i = std::size_t(w); i < raw.size(); ++i)
+        if (raw[i] != raw[i % std::size_t(w)]) return false;
+    return true;
+}
+
+/// Which modes the encoder may choose (tests force one to cover every path).
+struct ChunkModeChoice {
+    int forced = -1;       // -1: the smallest; else this mode when it can code the chunk, range if not
+    int zstd_level = 19;   // level of the samples mode's frames
+};
+
+/// Keeps the smaller of `best` and `cand` (the earlier one on a tie, so the
+/// choice depends on the chunk alone: same bytes for any thread count).
+inline void keep_smaller(CodedSection& best, CodedSection cand) {
+    if (cand.bytes.size() < best.bytes.size()) best = std::move(cand);
+}
+
+/// zstd at this level first: the samples mode is tried at the chunk's level
+/// (19 by default, ~10x slower) only when this frame comes within 25% of the
+/// range coder's size. Without the screen the 257^3 bench encode took 47 s
+/// instead of 5; with it no file of bench_container changed size.
+constexpr int kScreenZstdLevel = 3;
+
+/// The samples mode of a gathered chunk, when it may beat `range_size`.
+inline std::optional<CodedSection> samples_mode(const std::vector<std::byte>& raw, std::size_t range_size,
+                                                const ChunkModeChoice& o) {
+    const bool forced = o.forced == int(kModeSamples);
+    auto frame = tlod::zstd_compress(raw, std::min(o.zstd_level, kScreenZstdLevel));
+    if (!forced && frame.size() > range_size + range_size / 4 + 16) return std::nullopt;
+    if (o.zstd_level > kScreenZstdLevel) frame = tlod::zstd_compress(raw, o.zstd_level);
+    return coded(std::move(frame), kModeSamples, true, raw.size());
+}
+
+/// Constant or samples coding of a gathered chunk (`n` values of `w` bytes),
+/// per `o`; `range` is the range-coded section, the default.
+inline CodedSection choose_mode(CodedSection range, const std::vector<std::byte>& raw, uint64_t n, int w,
+                                const ChunkModeChoice& o) {
+    if (o.forced == int(kModeRange)) return range;
+    if ((o.forced < 0 || o.forced == int(kModeConstant)) && n <= kMaxModelledPoints && all_equal(raw, w))
+        return coded(std::vector<std::byte>(raw.begin(), raw.begin() + w), kModeConstant);
+    if (o.forced >= 0 && o.forced != int(kModeSamples)) return range;  // the forced mode cannot code it
+    if (auto samples = samples_mode(raw, range.bytes.size(), o)) {
+        if (o.forced == int(kModeSamples)) return std::move(*samples);
+        keep_smaller(range, std::move(*samples));
+    }
+    return range;
+}
+
+/// Whether every value of the chunk equals its prediction (§7.4).
+template <class T>
+bool zero_residuals(const Geometry& G, const T* v, const HtChunk& c) {
+    using D = Dom<T>;
+    struct Check {
+        const T* v;
+        bool zero = true;
+        void operator()(int, const Prediction& pr, int64_t idx, int64_t) {
+            zero = zero && typename D::U(uint64_t(D::get(v[idx]))) == typename D::U(uint64_t(pr.p));
+        }
+    } check{v};
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    walk_field_chunk(G, v, c, lat, check);
+    return check.zero;
+}
+
+template <class T>
+CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk& c, ChunkModeChoice o) {
+    using D = Dom<T>;
+    constexpr int w = int(sizeof(T));
+    if (c.points == 0) return coded({}, kModeRange);
+    CodedSection range = coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
+    if (o.forced == int(kModeRange)) return range;
+    // Zero residuals range-code to a few bytes per context; only such small
+    // streams are worth the extra prediction pass (a linear chunk then costs nothing).
+    const bool small = range.bytes.size() <= 16 + c.points / 256;
+    if (c.points <= kMaxModelledPoints && (o.forced == int(kModeZeroResidual) || (o.forced < 0 && small)) &&
+        zero_residuals(G, v, c))
+        return coded({}, kModeZeroResidual);
+    if (o.forced == int(kModeZeroResidual)) return range;  // it cannot code the chunk
+    const auto raw = gather_chunk(G, c, w, [&](int64_t i) { return uint64_t(std::bit_cast<typename D::U>(v[i])); });
+    return choose_mode(std::move(range), raw, c.points, w, o);
+}
+
+template <class T>
+CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
+                                   int m, ChunkModeChoice o) {
+    if (c.diamonds == 0) return coded({}, kModeRange);
+    if (o.forced == int(kModeZeroResidual)) o.forced = int(kModeRange);  // a field-only mode
+    CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
+    if (o.forced == int(kModeRange)) return range;
+    const auto raw =
+        gather_chunk(G, c, 2, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });
+    return choose_mode(std::move(range), raw, c.diamonds, 2, o);
+}
+
+/// Decodes a field chunk of coding 3 from its raw bytes (decompressed when
+/// the section is flagged ZSTD). The layout checked the sizes against the
+/// mode (§6.4). Returns an empty string or what is wrong.
+template <class T>
+std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uint32_t mode,
+                                  std::span<const std::byte> in) {
+    using D = Dom<T>;
+    using U = typename D::U;
+    constexpr int w = int(sizeof(T));
+    switch (mode) {
+        case kModeRange:
+            return decode_field_chunk_v2<T>(G, v, c, in) ? "" : "malformed range-coded stream";
+        case kModeConstant: {
+            if (in.size() != std::size_t(w)) return "constant chunk of the wrong size";
+            const T value = std::bit_cast<T>(U(get_le(in.data(), w)));
+            G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) { v[G.index(x, y, z)] = value; });
+            return "";
+        }
+        case kModeSamples: {
+            if (in.size() != c.points * uint64_t(w)) return "samples chunk of the wrong size";
+            const std::byte* p = in.data();
+            G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+                v[G.index(x, y, z)] = std::bit_cast<T>(U(get_le(p, w)));
+                p += w;
+            });
+            return "";
+        }
+        case kModeZeroResidual: {
+            if (!in.empty()) return "zero-residual chunk with stored bytes";
+            struct Put {
+                T* v;
+                void operator()(int, const Prediction& pr, int64_t idx, int64_t) { v[idx] = D::put(U(uint64_t(pr.p))); }
+            } put{v};
+            thread_local std::vector<uint32_t> storage;
+            ChunkLattice lat(c.cycle, c.box, storage);
+            walk_field_chunk(G, v, c, lat, put);
+            return "";
+        }
+        default:
+            return "unknown chunk mode " + std::to_string(mode);
+    }
+}
+
+/// As decode_field_chunk_v3, for the error codes; the chunk's field is decoded.
+template <class T>
+std::string decode_error_chunk_v3(const Geometry& G, const T* v, float* e, const HtChunk& c, int m, uint32_t mode,
+                                  std::span<const std::byte> in) {
+    const uint32_t qmax = max_error_code(m);
+    auto scatter = [&](auto&& code_at) {
+        bool ok = true;
+        std::size_t i = 0;
+        G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+            const uint64_t q = code_at(i++);
+            ok = ok && q <= qmax;
+            e[G.index(x, y, z)] = q <= qmax ? dequantize_error(uint16_t(q), m) : std::numeric_limits<float>::infinity();
+        });
+        return ok ? std::string() : "error code above " + std::to_string(qmax);
+    };
+    switch (mode) {
+        case kModeRange:
+            return decode_error_chunk_v2<T>(G, v, e, c, m, in) ? "" : "error code out of range or malformed stream";
+        case kModeConstant:
+            if (in.size() != 2) return "constant chunk of the wrong size";
+            return scatter([&](std::size_t) { return get_le(in.data(), 2); });
+        case kModeSamples:
+            if (in.size() != c.diamonds * 2) return "samples chunk of the wrong size";
+            return scatter([&](std::size_t i) { return get_le(in.data() + 2 * i, 2); });
+        default:
+            return "unknown chunk mode " + std::to_string(mode) + " for error codes";
+    }
+}
+
+}  // namespace tetlod::ht_detail

@@ -1,0 +1,274 @@
+// Format 3.0 chunk modes (spec/tlod-format.md §6.4): every value type through
+// every mode bit-exact, the same bytes for any thread count, the encoder's
+// choice on constant / sparse / linear volumes, and hostile mode sections.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <string>
+
+#include "tetlod/codecs/error_quantizer.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/format/byte_io.hpp"
+#include "tetlod/format/container.hpp"
+#include "tetlod/format/metadata.hpp"
+#include "tlod_test_util.hpp"
+
+using namespace tetlod;
+using namespace tetlod::tlod;
+
+namespace {
+
+tbb::global_control thread_limit(int threads) {
+    return tbb::global_control(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+}
+
+enum class Shape { Noisy, Constant, Sparse, Linear };
+
+Volume make_shaped(Dims d, ValueType t, Shape s) {
+    if (s == Shape::Noisy) return tlodtest::make_volume(d, t, 3);
+    Volume v = Volume::allocate(d, t);
+    dispatch_value_type(t, [&](auto tv) {
+        using T = decltype(tv);
+        T* p = v.as<T>();
+        for (int64_t z = 0; z < d.z; ++z)
+            for (int64_t y = 0; y < d.y; ++y)
+                for (int64_t x = 0; x < d.x; ++x) {
+                    int64_t val = 7;
+                    if (s == Shape::Sparse) val = (x - 3) * (x - 3) + (y - 4) * (y - 4) + z * z < 9 ? 5 + x : 0;
+                    if (s == Shape::Linear) val = x + 2 * y + 3 * z;  // every prediction exact in the interior
+                    p[d.index(x, y, z)] = T(val);
+                }
+    });
+    return v;
+}
+
+std::vector<std::byte> encode(const HtModel& m, const Volume& v, int mode, int threads = 1) {
+    const auto limit = thread_limit(threads);
+    HtEncodeOptions eo;
+    eo.brick_log2 = 1;  // many chunks even on small grids
+    eo.chunk_mode = mode;
+    ContainerWriter w;
+    encode_ht(m, metadata_for_volume(v), w, eo);
+    return w.finish();
+}
+
+/// Sections per chunk mode (bits 8-11 of the flags), of one type.
+std::array<int, 16> mode_counts(std::span<const std::byte> f, uint32_t type) {
+    std::array<int, 16> n{};
+    auto r = ContainerReader::from_memory(f);
+    for (const auto& s : r->sections())
+        if (s.type == type && s.stored_size + s.raw_size > 0) ++n[section_mode(s.flags)];
+        else if (s.type == type && section_mode(s.flags) == 3) ++n[3];
+    return n;
+}
+
+class ChunkModes : public ::testing::TestWithParam<ValueType> {};
+
+}  // namespace
+
+TEST_P(ChunkModes, EveryModeBitExact) {
+    for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
+        for (int mode : {-1, 0, 1, 2, 3}) {
+            const Volume v = make_shaped({11, 9, 7}, GetParam(), shape);
+            const HtModel m = HtModel::build(v);
+            const auto bytes = encode(m, v, mode, 1);
+            ASSERT_TRUE(bytes == encode(m, v, mode, 2)) << "bytes differ with 2 threads, mode " << mode;
+            auto r = ContainerReader::from_memory(bytes);
+            ASSERT_TRUE(r.ok());
+            EXPECT_EQ(r->header().version_major, 3);
+            auto dec = decode_ht(*r);
+            ASSERT_TRUE(dec.ok()) << dec.failure().message;
+            // The field on B: the volume itself (unpadded).
+            ASSERT_EQ(dec->field.data, v.data) << "shape " << int(shape) << " mode " << mode;
+            // Errors: exactly the stored bound of every diamond's error, whatever the mode.
+            const auto& te = m.diamond_errors();
+            ASSERT_EQ(dec->errors.size(), te.size());
+            for (std::size_t i = 0; i < te.size(); ++i)
+                ASSERT_EQ(dec->errors[i], dequantize_error(quantize_error(te[i], 4), 4))
+                    << i << " shape " << int(shape) << " mode " << mode;
+            const auto fm = mode_counts(bytes, kSectionHtField), em = mode_counts(bytes, kSectionHtErrors);
+            if (mode == 2) EXPECT_GT(fm[2], 0);
+            if (mode == 2) EXPECT_GT(em[2], 0);
+            if (mode == 1 && shape == Shape::Constant) EXPECT_GT(fm[1] + em[1], 0);
+            if (mode == 3 && shape == Shape::Linear) EXPECT_GT(fm[3], 0);
+            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + em[1] + em[2], 0);
+            // (Error chunks at the far faces of B mix 0 with +inf bounds: range coded.)
+            if (mode == -1 && shape == Shape::Constant) EXPECT_EQ(fm[0], 0);
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, ChunkModes,
+                         ::testing::Values(ValueType::U8, ValueType::I8, ValueType::U16, ValueType::I16,
+                                           ValueType::U32, ValueType::I32, ValueType::F32, ValueType::F64));
+
+TEST(ChunkModesChoice, SmallestNeverLargerThanRangeOnly) {
+    for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
+        const Volume v = make_shaped({33, 33, 33}, ValueType::U8, shape);
+        const HtModel m = HtModel::build(v);
+        EXPECT_LE(encode(m, v, -1).size(), encode(m, v, 0).size()) << int(shape);
+    }
+}
+
+// ---- hostile mode sections ----
+namespace {
+
+struct Section {
+    SectionInfo info;
+    std::vector<std::byte> bytes;
+};
+
+std::vector<Section> sections_of(std::span<const std::byte> f) {
+    auto r = ContainerReader::from_memory(f);
+    std::vector<Section> out;
+    for (std::size_t i = 0; i < r->sections().size(); ++i) out.push_back({r->sections()[i], *r->read_stored(i)});
+    return out;
+}
+
+std::vector<std::byte> rebuild(const std::vector<Section>& ss) {
+    ContainerWriter w;
+    w.set_features(kFeatureHt);
+    for (const auto& s : ss) w.add_stored(s.info.type, s.info.flags, s.info.arg0, s.info.arg1, s.bytes, s.info.raw_size);
+    return w.finish();
+}
+
+/// Index of the first section of `type` in `mode` with content.
+std::size_t find_mode(const std::vector<Section>& ss, uint32_t type, uint32_t mode) {
+    for (std::size_t i = 0; i < ss.size(); ++i)
+        if (ss[i].info.type == type && section_mode(ss[i].info.flags) == mode && ss[i].info.raw_size > 0) return i;
+    ADD_FAILURE() << "no section of type " << type << " in mode " << mode;
+    return 0;
+}
+
+Failure open_failure(std::span<const std::byte> f) {
+    auto r = ContainerReader::from_memory(f);
+    if (!r) return r.failure();
+    auto d = decode_ht(*r);
+    return d ? Failure{ErrorCode::Ok, {}} : d.failure();
+}
+
+void set_mode(Section& s, uint32_t mode) { s.info.flags = (s.info.flags & ~kSectionModeMask) | (mode << kSectionModeShift); }
+
+void expect_failure(const std::vector<Section>& ss, ErrorCode code, const std::string& text) {
+    const Failure f = open_failure(rebuild(ss));
+    EXPECT_EQ(f.code, code) << f.message;
+    EXPECT_NE(f.message.find(text), std::string::npos) << f.message;
+    EXPECT_NE(f.message.find("section"), std::string::npos) << f.message;
+}
+
+}  // namespace
+
+TEST(ChunkModesHostile, RefusedWithSpecificErrors) {
+    const Volume v = make_shaped({11, 9, 7}, ValueType::U16, Shape::Noisy);
+    const HtModel m = HtModel::build(v);
+    const auto samples = sections_of(encode(m, v, 2));
+    const std::size_t fs = find_mode(samples, kSectionHtField, 2), es = find_mode(samples, kSectionHtErrors, 2);
+    ASSERT_EQ(open_failure(rebuild(samples)).code, ErrorCode::Ok);
+    {  // an unknown mode
+        auto ss = samples;
+        set_mode(ss[fs], 9);
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 9");
+    }
+    {  // zero-residual is a field mode
+        auto ss = samples;
+        set_mode(ss[es], 3);
+        ss[es].bytes.clear();
+        ss[es].info.raw_size = 0;
+        ss[es].info.flags &= ~kSectionZstd;
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "for error codes");
+    }
+    {  // a truncated zstd frame
+        auto ss = samples;
+        ss[fs].bytes.resize(ss[fs].bytes.size() - 3);
+        expect_failure(ss, ErrorCode::CorruptData, "zstd");
+    }
+    {  // a raw size that is not the chunk's: refused before decompressing
+        auto ss = samples;
+        ss[fs].info.raw_size += 2;
+        ss[fs].bytes = zstd_compress(std::vector<std::byte>(ss[fs].info.raw_size), 1);
+        expect_failure(ss, ErrorCode::CorruptData, "samples chunk of");
+    }
+    {  // a frame declaring a content size other than the section's raw size
+        auto ss = samples;
+        ss[fs].bytes = zstd_compress(std::vector<std::byte>(ss[fs].info.raw_size - 2), 1);
+        expect_failure(ss, ErrorCode::CorruptData, "content size");
+    }
+    {  // a huge claimed raw size: refused from the table, nothing allocated
+        auto ss = samples;
+        ss[fs].info.raw_size = uint64_t{1} << 40;
+        const Failure f = open_failure(rebuild(ss));
+        EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
+    }
+    {  // a constant field chunk of the wrong size, and one flagged ZSTD
+        auto ss = samples;
+        set_mode(ss[fs], 1);
+        ss[fs].bytes.assign(3, std::byte{0});
+        ss[fs].info.raw_size = 3;
+        ss[fs].info.flags &= ~kSectionZstd;
+        expect_failure(ss, ErrorCode::CorruptData, "constant chunk of 3 bytes");
+        ss[fs].info.flags |= kSectionZstd;
+        ss[fs].bytes = zstd_compress(std::vector<std::byte>(2), 1);
+        ss[fs].info.raw_size = 2;
+        expect_failure(ss, ErrorCode::CorruptData, "must not be zstd");
+    }
+    {  // a constant error chunk with a code above 0xFF << m
+        auto ss = samples;
+        set_mode(ss[es], 1);
+        ss[es].bytes = {std::byte{0xFF}, std::byte{0xFF}};
+        ss[es].info.raw_size = 2;
+        ss[es].info.flags &= ~kSectionZstd;
+        expect_failure(ss, ErrorCode::CorruptData, "error code above");
+    }
+    {  // a samples error chunk with a code above 0xFF << m
+        auto ss = samples;
+        std::vector<std::byte> codes(ss[es].info.raw_size, std::byte{0});
+        codes[1] = std::byte{0xF0};
+        ss[es].bytes = zstd_compress(codes, 1);
+        expect_failure(ss, ErrorCode::CorruptData, "error code above");
+    }
+    {  // zero-residual with bytes; a mode on an empty chunk
+        auto ss = samples;
+        set_mode(ss[fs], 3);
+        ss[fs].info.flags &= ~kSectionZstd;
+        ss[fs].bytes.assign(4, std::byte{0});
+        ss[fs].info.raw_size = 4;
+        expect_failure(ss, ErrorCode::CorruptData, "zero-residual chunk with stored bytes");
+        auto tt = samples;
+        std::size_t empty = 0;
+        for (std::size_t i = 0; i < tt.size(); ++i)
+            if (tt[i].info.type == kSectionHtErrors && tt[i].info.raw_size == 0) empty = i;  // the corner chunk's
+        ASSERT_NE(empty, 0u);
+        set_mode(tt[empty], 1);
+        expect_failure(tt, ErrorCode::CorruptData, "empty chunk");
+    }
+}
+
+TEST(ChunkModesHostile, ModeBitsRefusedBeforeVersion3) {
+    // A 2.x file (the format 2.0 test vector) with a mode bit set: reserved bits.
+    const std::string path = std::string(TETLOD_SPEC_DIR) + "/test-vectors/ht_v2_u8_9x6x5.tlod";
+    auto r = ContainerReader::open(path);
+    ASSERT_TRUE(r.ok());
+    std::vector<std::byte> f(r->header().file_size);
+    {
+        FILE* fp = std::fopen(path.c_str(), "rb");
+        ASSERT_EQ(std::fread(f.data(), 1, f.size(), fp), f.size());
+        std::fclose(fp);
+    }
+    const uint32_t n = uint32_t(load_le(f.data() + 40, 4));
+    for (uint32_t i = 0; i < n; ++i) {
+        std::byte* e = f.data() + 64 + 48 * i;
+        if (load_le(e, 4) == kSectionHtField) {
+            store_le(e + 4, load_le(e + 4, 4) | (2u << kSectionModeShift), 4);
+            break;
+        }
+    }
+    store_le(f.data() + 48, checksum64(std::span<const std::byte>(f.data() + 64, n * 48)), 8);
+    store_le(f.data() + 56, checksum64(std::span<const std::byte>(f.data(), 56)), 8);
+    auto bad = ContainerReader::from_memory(f);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_EQ(bad.failure().code, ErrorCode::CorruptData);
+    EXPECT_NE(bad.failure().message.find("reserved flag bits"), std::string::npos) << bad.failure().message;
+}
