@@ -15,6 +15,7 @@
 
 #include "ht_error_chunk_coder.hpp"
 #include "ht_field_chunk_coder.hpp"
+#include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 
 namespace tetlod::ht_detail {
@@ -51,16 +52,6 @@ inline CodedSection coded(std::vector<std::byte> bytes, uint32_t mode, bool zstd
     return s;
 }
 
-/// Little-endian bytes of `w` bytes of v (the spec's byte order on any host).
-inline void put_le(std::byte* out, uint64_t v, int w) {
-    for (int i = 0; i < w; ++i) out[i] = std::byte(uint8_t(v >> (8 * i)));
-}
-inline uint64_t get_le(const std::byte* in, int w) {
-    uint64_t v = 0;
-    for (int i = 0; i < w; ++i) v |= uint64_t(uint8_t(in[i])) << (8 * i);
-    return v;
-}
-
 /// The chunk's values in point order (§6.2), `w` bytes each, little-endian;
 /// `bits(idx)` gives the value at a field index.
 template <class Bits>
@@ -68,7 +59,7 @@ std::vector<std::byte> gather_chunk(const Geometry& G, const HtChunk& c, int w, 
     std::vector<std::byte> out(std::size_t(c.points) * std::size_t(w));
     std::byte* p = out.data();
     G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
-        put_le(p, bits(G.index(x, y, z)), w);
+        tlod::store_le(p, bits(G.index(x, y, z)), w);
         p += w;
     });
     return out;
@@ -184,7 +175,7 @@ std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uin
             return decode_field_chunk_v2<T>(G, v, c, in) ? "" : "malformed range-coded stream";
         case kModeConstant: {
             if (in.size() != std::size_t(w)) return "constant chunk of the wrong size";
-            const T value = std::bit_cast<T>(U(get_le(in.data(), w)));
+            const T value = std::bit_cast<T>(U(tlod::load_le(in.data(), w)));
             G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) { v[G.index(x, y, z)] = value; });
             return "";
         }
@@ -192,7 +183,7 @@ std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uin
             if (in.size() != c.points * uint64_t(w)) return "samples chunk of the wrong size";
             const std::byte* p = in.data();
             G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
-                v[G.index(x, y, z)] = std::bit_cast<T>(U(get_le(p, w)));
+                v[G.index(x, y, z)] = std::bit_cast<T>(U(tlod::load_le(p, w)));
                 p += w;
             });
             return "";
@@ -233,10 +224,10 @@ std::string decode_error_chunk_v3(const Geometry& G, const T* v, float* e, const
             return decode_error_chunk_v2<T>(G, v, e, c, m, in) ? "" : "error code out of range or malformed stream";
         case kModeConstant:
             if (in.size() != 2) return "constant chunk of the wrong size";
-            return scatter([&](std::size_t) { return get_le(in.data(), 2); });
+            return scatter([&](std::size_t) { return tlod::load_le(in.data(), 2); });
         case kModeSamples:
             if (in.size() != c.diamonds * 2) return "samples chunk of the wrong size";
-            return scatter([&](std::size_t i) { return get_le(in.data() + 2 * i, 2); });
+            return scatter([&](std::size_t i) { return tlod::load_le(in.data() + 2 * i, 2); });
         default:
             return "unknown chunk mode " + std::to_string(mode) + " for error codes";
     }
