@@ -3,8 +3,9 @@
 // large polygonal models", SIGGRAPH 2000; Cignoni et al., "External memory management
 // and simplification of huge meshes", TVCG 2003), but with exact errors and a valid MT
 // (docs/mt.md §2, "Bricks"). Pass 0 decimates bricks of `brick_cells` cells with their
-// inner faces frozen; each later pass merges 2x2x2 bricks of the previous one, which
-// unfreezes the faces between them; the last pass is one brick, the whole volume.
+// inner faces frozen; each later pass has bricks about twice as large whose faces lie
+// inside the previous pass's bricks (mt_brick_passes.hpp), which unfreezes the old
+// faces; the last pass is one brick, the whole volume.
 //
 // Determinism: a brick's result depends only on its input (mt_decimate.hpp), and the
 // results are merged in brick raster order, so the model is the same for any number of
@@ -21,6 +22,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "mt_brick_passes.hpp"
 #include "mt_build_progress.hpp"
 #include "mt_decimate.hpp"
 #include "tetlod/core/error.hpp"
@@ -89,29 +91,11 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     nodes.err.assign(n, 0.0f);
 
     const std::array<int64_t, 3> cells{vol.dims.x - 1, vol.dims.y - 1, vol.dims.z - 1};
-    // Brick faces per axis, pass 0: as few bricks as keep every one within brick_cells,
-    // of even sizes (a remainder brick of a few cells would leave its neighbour alone
-    // in a pass: 67 cells are 3 x 22-23, not 32 + 32 + 3). Each later pass keeps every
-    // other face, so its bricks are unions of 2 x 2 x 2 children; the last is one brick.
-    std::vector<mt::PassFaces> passes(1);
-    for (int a = 0; a < 3; ++a) {
-        const int64_t count =
-            options.brick_cells == 0 ? 1 : std::max<int64_t>(1, (cells[a] + options.brick_cells - 1) / options.brick_cells);
-        for (int64_t i = 0; i <= count; ++i) passes[0][a].push_back(i * cells[a] / count);
-    }
-    while (std::any_of(passes.back().begin(), passes.back().end(), [](const auto& f) { return f.size() > 2; })) {
-        mt::PassFaces next;
-        for (int a = 0; a < 3; ++a) {
-            const auto& f = passes.back()[a];
-            for (size_t i = 0; i < f.size(); i += 2) next[a].push_back(f[i]);
-            if (next[a].back() != f.back()) next[a].push_back(f.back());
-        }
-        passes.push_back(std::move(next));
-    }
+    const std::vector<mt::PassFaces> passes = mt::plan_brick_passes(cells, options.brick_cells);
     const std::array<double, 2> value_range = vol.range();
     const double range_span = value_range[1] - value_range[0];
-    std::array<int64_t, 3> prev_count{0, 0, 0};
-    std::vector<mt::BrickMesh> prev;
+    std::vector<mt::BrickMesh> prev;  // the meshes of the last pass, then the tets carried over it
+    mt::BrickMesh carry;
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
@@ -124,7 +108,6 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         const size_t bricks = size_t(count[0] * count[1] * count[2]);
         int64_t largest_brick = 0;
         std::vector<mt::BrickBox> boxes(bricks);
-        std::vector<std::vector<mt::BrickMesh*>> inputs(bricks);
         for (size_t b = 0; b < bricks; ++b) {
             const std::array<int64_t, 3> at{int64_t(b) % count[0], int64_t(b) / count[0] % count[1],
                                             int64_t(b) / (count[0] * count[1])};
@@ -133,12 +116,22 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 boxes[b].hi[a] = faces[a][size_t(at[a]) + 1];
                 largest_brick = std::max(largest_brick, boxes[b].hi[a] - boxes[b].lo[a]);
             }
-            if (prev.empty()) continue;
-            // The children: the previous pass's bricks inside this one, in raster order.
-            for (int64_t z = 2 * at[2]; z < std::min(2 * at[2] + 2, prev_count[2]); ++z)
-                for (int64_t y = 2 * at[1]; y < std::min(2 * at[1] + 2, prev_count[1]); ++y)
-                    for (int64_t x = 2 * at[0]; x < std::min(2 * at[0] + 2, prev_count[0]); ++x)
-                        inputs[b].push_back(&prev[size_t((z * prev_count[1] + y) * prev_count[0] + x)]);
+        }
+        // The mesh so far, cut along this pass's bricks; tets crossing a face wait, and
+        // their vertices stay frozen, until a pass has a brick that holds them.
+        std::vector<mt::BrickMesh> meshes;
+        std::vector<std::vector<mt::BrickMesh*>> inputs(bricks);
+        if (pass > 0) {
+            prev.push_back(std::move(carry));
+            mt::distribute_tets(prev, faces, vol.dims, meshes, carry);
+            prev.clear();
+            if (!carry.tets.empty()) {
+                nodes.pinned.resize(n);
+                mt::pin_vertices(carry, nodes.pinned);
+            } else {
+                nodes.pinned = {};
+            }
+            for (size_t b = 0; b < bricks; ++b) inputs[b].push_back(&meshes[b]);
         }
         // Every pass but the last stops at an error cap growing with the bricks, so the
         // collapses of the whole volume happen roughly in the order of their errors, as in
@@ -190,12 +183,13 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             r = mt::BrickResult{};  // merged: its updates and masks need not wait for the others
         }
         if (stats)
-            std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once): %.2f s, %zu collapses so far\n",
-                         bricks, (long long)largest_brick, most_in_flight.load(),
+            std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once, %zu tets carried over): %.2f s, %zu collapses so far\n",
+                         bricks, (long long)largest_brick, most_in_flight.load(), carry.tets.size(),
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size());
-        prev_count = count;
     }
+    if (!carry.tets.empty() || prev.size() != 1)
+        throw Error(ErrorCode::CorruptData, "mt build: internal error (the last pass is not one brick)");
     m.base_ = std::move(prev.front().tets);
     if (options.record_history)
         for (const auto& t : m.base_)

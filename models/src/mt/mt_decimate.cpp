@@ -209,8 +209,8 @@ struct BrickDecimator {
                 const int64_t last = (a == 0 ? whole.X : a == 1 ? whole.Y : whole.Z) - 1;
                 f |= (point[i].c[a] == box.lo[a] && box.lo[a] != 0) || (point[i].c[a] == box.hi[a] && box.hi[a] != last);
             }
-            point[i].frozen = f;
             const uint32_t g = global(i);
+            point[i].frozen = f | (nodes.pinned.empty() ? uint8_t(0) : nodes.pinned[g]);
             if (int_data) point[i].ival = int64_t(vol.value(g));
             else point[i].fval = vol.value(g);
         }

@@ -1,9 +1,10 @@
 #pragma once
 // Decimation of one brick of the MT build (docs/mt.md §2, "Bricks"). A brick is a box
-// of grid points; the points on its faces that are not faces of the whole volume are
-// frozen: they are neither removed nor survivors. Every tet of the brick then stays
-// inside the box, every free vertex has all its tets inside the box, and two bricks of
-// one pass touch disjoint tets and disjoint nodes, so they can run in parallel and
+// of grid points and the tets of the mesh that lie in it; the points on its faces that
+// are not faces of the whole volume, and the vertices of tets that cross a face
+// (NodeState::pinned), are frozen: they are neither removed nor survivors. Every tet of
+// the brick then stays inside the box, every free vertex has all its tets in the
+// brick, and two bricks of one pass touch disjoint tets and disjoint nodes, so they can run in parallel and
 // their collapses, concatenated in any fixed order, form one valid collapse sequence
 // of the whole mesh.
 #include <array>
@@ -41,6 +42,10 @@ struct BrickMesh {
 struct NodeState {
     std::vector<uint32_t> node, label;
     std::vector<float> err;
+    /// 1 for a vertex of a tet that no brick of the current pass holds whole (the tet
+    /// crosses a face of the pass's bricks and waits for a later pass): such a vertex
+    /// is frozen in every brick, like a point on a brick face. Empty: none.
+    std::vector<uint8_t> pinned;
 };
 inline constexpr uint32_t kProvisional = 0x80000000u;
 

@@ -69,7 +69,7 @@ TEST(MtBuildProgress, OneBrickStillReportsStartAndEnd) {
     MtModel::build(v, o);
     ASSERT_EQ(seen.size(), 2u);
     EXPECT_EQ(seen[0].done, 0u);
-    // One pass: every grid point is free in it, weight 1.
+    // One pass of one brick: its share is every grid point.
     EXPECT_EQ(seen[0].total, uint64_t(9 * 7 * 6));
     EXPECT_EQ(seen[1].done, seen[1].total);
 }
