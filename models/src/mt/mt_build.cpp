@@ -150,10 +150,16 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                 const int now = ++in_flight;
                 for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
                 }
-                results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes);
+                uint64_t reported = 0;
+                mt::BrickProgress within;
+                if (options.progress)
+                    within = [&](uint64_t collapses, uint64_t candidates) {
+                        progress.brick_part(pass, boxes[b], double(collapses) / double(candidates), reported);
+                    };
+                results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes, within);
                 --in_flight;
                 release_free_heap();
-                progress.brick_done(pass, boxes[b]);
+                progress.brick_done(pass, boxes[b], reported);
             });
         });
         prev.clear();

@@ -1,6 +1,8 @@
 // Progress of the bricked MT build: shares of work per brick (see mt_build_progress.hpp).
 #include "mt_build_progress.hpp"
 
+#include <algorithm>
+
 namespace tetlod::mt {
 
 BuildProgress::BuildProgress(std::function<void(uint64_t, uint64_t)> report, std::array<int64_t, 3> cells,
@@ -28,9 +30,21 @@ void BuildProgress::start() {
     if (report_) report_(0, total_);
 }
 
-void BuildProgress::brick_done(int pass, const BrickBox& box) {
+void BuildProgress::brick_part(int pass, const BrickBox& box, double fraction, uint64_t& reported) {
     if (!report_) return;
-    const uint64_t add = share(pass, box);
+    const uint64_t whole = share(pass, box);
+    const uint64_t now = std::min(whole, uint64_t(double(whole) * std::clamp(fraction, 0.0, 1.0)));
+    if (now <= reported) return;
+    const uint64_t add = now - reported;
+    reported = now;
+    std::lock_guard<std::mutex> lock(mutex_);
+    done_ += add;
+    report_(done_, total_);
+}
+
+void BuildProgress::brick_done(int pass, const BrickBox& box, uint64_t reported) {
+    if (!report_) return;
+    const uint64_t add = share(pass, box) - reported;
     std::lock_guard<std::mutex> lock(mutex_);
     done_ += add;
     report_(done_, total_);

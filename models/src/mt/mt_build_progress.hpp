@@ -5,9 +5,10 @@
 // shares reaches it exactly. Every pass weighs about the same: the later passes hold
 // fewer points (the earlier ones decimated up to their error caps) but their collapses
 // cost more (larger tets, fewer bricks in parallel); iron 68^3 with the default caps,
-// 2 threads: 8.6, 3.6 and 4.0 s for its three passes. Only whole bricks are reported:
-// the decimation loop (mt_decimate.cpp) is left without a hook, so the last pass, one
-// brick, shows as a single step.
+// 2 threads: 8.6, 3.6 and 4.0 s for its three passes. Inside a brick the share advances with
+// its collapses over its free vertices at the start (an upper bound of the collapses,
+// close for the last pass, which removes nearly every one), so the last pass, one
+// brick, moves too; the rest of a brick's share comes when it is done.
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -26,9 +27,13 @@ public:
                   std::vector<PassFaces> passes);
     /// Reports (0, total).
     void start();
-    /// A brick of pass `pass` is done. Callable from any thread: calls are serialized
-    /// and `done` never decreases; the last brick of the last pass gives done == total.
-    void brick_done(int pass, const BrickBox& box);
+    /// A brick of pass `pass` has done about `fraction` (0..1) of its work; `reported`
+    /// is the brick's share reported so far (the caller keeps it per brick, 0 at first).
+    void brick_part(int pass, const BrickBox& box, double fraction, uint64_t& reported);
+    /// A brick of pass `pass` is done (`reported`: from brick_part, or 0). Callable
+    /// from any thread: calls are serialized and `done` never decreases; the last brick
+    /// of the last pass gives done == total.
+    void brick_done(int pass, const BrickBox& box, uint64_t reported = 0);
     uint64_t total() const { return total_; }
 
 private:

@@ -710,10 +710,11 @@ struct BrickDecimator {
     uint64_t mask_bit_count = 0;
     double current_cost = 0;
 
-    void run() {
+    void run(const BrickProgress& progress) {
         init();
+        uint64_t candidates = 0;
         for (uint32_t v = 0; v < n; ++v)
-            if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0);
+            if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0), ++candidates;
         while (!heap.empty()) {
             const Entry e = heap.top();
             heap.pop();
@@ -735,6 +736,7 @@ struct BrickDecimator {
             if (e.cost > opt.max_error) break;
             commit(e.w, e.s);
             ++n_commit;
+            if (progress && n_commit % kCollapsesPerReport == 0) progress(n_commit, candidates);
         }
         out.evaluations = n_eval;
         out.relocated_points = n_pts;
@@ -770,10 +772,10 @@ struct BrickDecimator {
 }  // namespace
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
-                           const std::vector<BrickMesh*>& input, NodeState& nodes) {
+                           const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress) {
     BrickResult r;
     BrickDecimator d(vol, opt, box, input, nodes, r);
-    d.run();
+    d.run(progress);
     r.mask_bit_count = d.mask_bit_count;
     return r;
 }

@@ -9,6 +9,7 @@
 // of the whole mesh.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "tetlod/models/mt/mt_model.hpp"
@@ -58,10 +59,17 @@ struct BrickResult {
     uint64_t evaluations = 0, relocated_points = 0;
 };
 
-/// Decimates the brick. `input`: the tets of the brick (the child bricks' meshes,
-/// concatenated in a fixed order), emptied once read; empty: start from the reference
-/// mesh of the box. Deterministic: the result depends only on the arguments.
+/// Progress inside a brick: (collapses so far, free vertices at the start), every
+/// kCollapsesPerReport collapses. The second is an upper bound of the first.
+using BrickProgress = std::function<void(uint64_t, uint64_t)>;
+inline constexpr uint64_t kCollapsesPerReport = 4096;
+
+/// Decimates the brick. `input`: the tets of the brick (the previous pass's tets that
+/// lie in its box, in a fixed order), emptied once read; empty: start from the
+/// reference mesh of the box. Deterministic: the result depends only on the arguments
+/// (not on `progress`, which may be empty).
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
-                           const std::vector<BrickMesh*>& input, NodeState& nodes);
+                           const std::vector<BrickMesh*>& input, NodeState& nodes,
+                           const BrickProgress& progress = {});
 
 }  // namespace tetlod::mt

@@ -73,3 +73,26 @@ TEST(MtBuildProgress, OneBrickStillReportsStartAndEnd) {
     EXPECT_EQ(seen[0].total, uint64_t(9 * 7 * 6));
     EXPECT_EQ(seen[1].done, seen[1].total);
 }
+
+TEST(MtBuildProgress, OneLargeBrickMovesBeforeItEnds) {
+    // The last pass is one brick: without reports from inside it, a long build would sit
+    // at one value. 31^3 points in one brick: more than 4,096 collapses.
+    const Volume v = make_volume({31, 31, 31}, ValueType::U8, Field::Smooth, 4);
+    MtBuildOptions o;
+    o.brick_cells = 0;
+    std::vector<Report> seen;
+    o.progress = [&](uint64_t done, uint64_t total) { seen.push_back({done, total}); };
+    const MtModel m = MtModel::build(v, o);
+    ASSERT_GT(m.updates().size(), 4096u);
+    ASSERT_GE(seen.size(), 3u) << "no report between the start and the end";
+    EXPECT_EQ(seen.front().done, 0u);
+    for (size_t i = 1; i < seen.size(); ++i) {
+        EXPECT_EQ(seen[i].total, seen.front().total);
+        EXPECT_GE(seen[i].done, seen[i - 1].done) << "call " << i;
+    }
+    EXPECT_EQ(seen.back().done, seen.back().total);
+    // The same model as without a callback.
+    MtBuildOptions plain = o;
+    plain.progress = nullptr;
+    EXPECT_TRUE(encode_mt(m) == encode_mt(MtModel::build(v, plain)));
+}
