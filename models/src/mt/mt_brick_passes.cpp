@@ -58,10 +58,18 @@ std::vector<PassFaces> plan_brick_passes(const std::array<int64_t, 3>& cells, in
             const std::vector<int64_t>& f = passes.back()[size_t(a)];
             const size_t count = f.size() - 1;
             std::vector<int64_t>& g = next[size_t(a)];
+            // Half as many bricks (rounded up), of equal sizes, except that a face stays at
+            // least a quarter of an old brick away from the old faces: 4 old bricks become
+            // 1.75 + 2.25, not 2 + 2 (an old face frozen again) nor 1.5 + 2.5 (midpoints).
+            const size_t bricks = count <= 2 ? 1 : (count + 1) / 2;
             g.push_back(f.front());
-            // Midpoints of bricks 1, 3, 5, ...: a new brick spans about two old ones, and the
-            // last inner face leaves at least 1.5 old bricks after it.
-            for (size_t i = 1; i + 2 <= count; i += 2) g.push_back((f[i] + f[i + 1]) / 2);
+            for (size_t j = 1; j < bricks; ++j) {
+                int64_t x = f.front() + int64_t(j) * (f.back() - f.front()) / int64_t(bricks);
+                const size_t i = std::min(count - 1, size_t(std::upper_bound(f.begin(), f.end(), x) - f.begin()) - 1);
+                const int64_t quarter = std::max<int64_t>(1, (f[i + 1] - f[i]) / 4);
+                x = std::clamp(x, f[i] + quarter, std::max(f[i] + quarter, f[i + 1] - quarter));
+                if (x > g.back() && x < f.back()) g.push_back(x);
+            }
             g.push_back(f.back());
         }
         passes.push_back(std::move(next));

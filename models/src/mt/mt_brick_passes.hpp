@@ -6,8 +6,8 @@
 // keeps the resolution it had when the pass began. If every pass kept faces of the
 // previous one (bricks nested 2x2x2), the middle faces of the volume would stay frozen
 // from the first pass to the last and every LOD below the last-but-one pass's error
-// cap would carry them at full resolution. Here the faces of pass p+1 are midpoints
-// of pass p's bricks: a face is frozen in one pass only, where the previous pass has
+// cap would carry them at full resolution. Here the faces of pass p+1 lie inside
+// pass p's bricks: a face is frozen in one pass only, where the previous pass has
 // already decimated its neighbourhood to that pass's cap.
 //
 // The price: a tet of pass p may cross a face of pass p+1. Such a tet goes to no brick;
@@ -22,8 +22,9 @@ namespace tetlod::mt {
 
 /// Brick faces of every pass for a volume of `cells` cells per axis. Pass 0: as few
 /// bricks of at most `brick_cells` cells per axis as possible, of even sizes (0: one
-/// brick). Each later pass takes the midpoints of every other brick of the previous
-/// one (about half as many bricks per axis); the last pass is one brick.
+/// brick). Each later pass has half as many bricks per axis (rounded up), of about equal
+/// sizes, with faces inside the previous pass's bricks, a quarter of a brick or more
+/// from their faces; the last pass is one brick.
 std::vector<PassFaces> plan_brick_passes(const std::array<int64_t, 3>& cells, int64_t brick_cells);
 
 /// Hands the meshes of one pass over to the bricks of the next one. `from`: the meshes

@@ -42,8 +42,8 @@ TEST(MtPassCaps, CoarseLodsOfABrickedBuildStayNearOneBrick) {
 // such LODs carried them at full resolution; the faces now shift between passes
 // (each is frozen in one pass only), so a LOD carries the faces of one pass at the
 // resolution of the cap before it (1/8 of the next). Printed when written (one brick /
-// shifted / nested): 58,468 / 59,931 / 65,250 tets at 0.5 %, 24,532 / 31,003 / 35,124
-// at 1 %, 9,270 / 16,947 / 19,896 at 2 %.
+// shifted / nested): 58,468 / 59,944 / 65,250 tets at 0.5 %, 24,532 / 30,823 / 35,124
+// at 1 %, 9,270 / 17,086 / 19,896 at 2 %.
 TEST(MtPassCaps, LodsBelowTheTopCapStayNearOneBrick) {
     const Volume v = make_volume({41, 37, 33}, ValueType::U8, Field::Smooth, 11);
     const double span = v.range()[1] - v.range()[0];
