@@ -36,12 +36,14 @@ struct SlabPartition {
 /// What one rank moved, for the report (-v) and docs/distributed.md.
 struct SlabTraffic {
     uint64_t bytes_read = 0;       // from the file
-    uint64_t bytes_sent = 0;       // planes and errors sent to rank 0, partial maxima
-    uint64_t bytes_received = 0;   // planes and errors received (rank 0), partial maxima
+    uint64_t bytes_sent = 0;       // lattice planes for other ranks' rows, partial maxima, section entries
+    uint64_t bytes_received = 0;   // lattice planes for its rows, partial maxima, entries (rank 0)
     uint64_t messages = 0;         // point-to-point messages sent and received
     double read_seconds = 0;
     double scan_seconds = 0;   // first pass over its planes
     double error_seconds = 0;  // errors of its planes (before the merge)
+    double encode_seconds = 0; // encoding its rows of bricks (step 3)
+    uint64_t bytes_written = 0;  // to the container (MPI-IO)
     double cpu_seconds = 0;    // user CPU time of the process, at the end
 };
 
