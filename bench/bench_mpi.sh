@@ -3,7 +3,7 @@
 # `mpirun -n 1|2 tetlod-mpi convert` on a generated volume, alternated,
 # REPEAT times each; prints every run (wall, user CPU of the job), the minimum
 # of each, the speed-up of -n 2 over -n 1 and over the serial tool, the load
-# (uptime) before each run, the bytes each rank read and sent (-v), and checks
+# (uptime) before each run, the bytes each rank read, sent and wrote (-v), and checks
 # that every container is byte-identical to the serial one.
 #
 #   bench/bench_mpi.sh BUILD_DIR [SIZE=513] [REPEAT=2] [WORKDIR=/tmp/tetlod_bench_mpi]
@@ -43,6 +43,10 @@ best() { sort -g "$1.walls" | head -1; }
 s=$(best serial) a=$(best n1) b=$(best n2)
 echo "per rank, last -n 1 run:"; grep -A2 '^rank' n1.err | head -3
 echo "per rank, last -n 2 run:"; grep -A3 '^rank' n2.err | head -4
+for f in n1 n2; do
+    grep -A3 '^rank' "$f.err" | awk -v run="$f" 'NR > 1 && $1 ~ /^[0-9]+$/ {
+        printf "%s rank %s: bytes read %s, sent %s, written %s\n", run, $1, $2, $3, $5 }'
+done
 printf 'minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s\n' "$s" "$a" "$b"
 printf 'speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod convert (containers byte-identical)\n' \
     "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"

@@ -280,6 +280,48 @@ void ContainerWriter::add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t
     add_stored(type, flags | kSectionZstd, arg0, arg1, zstd_compress(raw, level), raw.size());
 }
 
+void ContainerWriter::add_external(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, uint64_t stored_size,
+                                   uint64_t raw_size, uint64_t checksum) {
+    SectionInfo s;
+    s.type = type;
+    s.flags = flags;
+    s.stored_size = stored_size;
+    s.raw_size = raw_size;
+    s.arg0 = arg0;
+    s.arg1 = arg1;
+    s.checksum = checksum;
+    sections_.push_back(s);
+    Payload p;
+    p.external = true;
+    payloads_.push_back(std::move(p));
+}
+
+std::vector<uint64_t> ContainerWriter::section_offsets() const {
+    std::vector<uint64_t> out;
+    out.reserve(sections_.size());
+    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    for (const SectionInfo& s : sections_) {
+        out.push_back(offset);
+        offset += s.stored_size;
+    }
+    return out;
+}
+
+uint64_t ContainerWriter::file_size() const {
+    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    for (const SectionInfo& s : sections_) offset += s.stored_size;
+    return offset;
+}
+
+std::vector<std::byte> ContainerWriter::leading_bytes() const {
+    std::vector<std::byte> out = head_bytes();
+    for (const Payload& p : payloads_) {
+        if (p.spill || p.external) break;
+        out.insert(out.end(), p.bytes.begin(), p.bytes.end());
+    }
+    return out;
+}
+
 std::vector<std::byte> ContainerWriter::head_bytes() const {
     uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
     std::vector<std::byte> table;
@@ -313,6 +355,7 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
 }
 
 std::vector<std::byte> ContainerWriter::finish() const {
+    refuse_external();
     std::vector<std::byte> out = head_bytes();
     for (std::size_t i = 0; i < payloads_.size(); ++i) {
         const Payload& p = payloads_[i];
@@ -323,7 +366,14 @@ std::vector<std::byte> ContainerWriter::finish() const {
     return out;
 }
 
+void ContainerWriter::refuse_external() const {
+    for (const Payload& p : payloads_)
+        if (p.external)
+            throw Error(ErrorCode::InvalidArgument, "ContainerWriter: a section's bytes are written elsewhere (add_external)");
+}
+
 void ContainerWriter::write(const std::string& path) const {
+    refuse_external();
     AtomicFile f(path);
     std::vector<std::byte> head = head_bytes();
     f.write(head.data(), head.size());

@@ -4,11 +4,15 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
+#include <iostream>
 #include <memory>
 
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include "rank_encode.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/output_policy.hpp"
 
 namespace tetlod::mpi {
@@ -158,67 +162,93 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
         if (result.failure) return result;
     }
 
-    // F: rank 0 encodes with the serial writer, fed with the errors (its own,
-    // the others' by request) and the planes (read once); the others serve
-    // them until rank 0 says stop (also after a failure).
-    // Rank 0 writes beside the output and renames only once every rank has
-    // agreed: a rank failing while serving the last planes leaves nothing.
+    // F: every rank encodes the rows of bricks starting in its planes (their
+    // windows' lattice planes from other slabs come by one MPI_Alltoallv),
+    // rank 0 lays the file out from every section's size and checksum (the
+    // library's layout, the serial writer's), and every rank writes its
+    // sections at their offsets with MPI-IO into a temporary file beside the
+    // output, renamed by rank 0 once every rank agreed (else deleted).
     const bool to_file = output != "-";
-    const std::string written = to_file ? output + ".tetlod-mpi-" + std::to_string(::getpid()) + ".tmp" : output;
-    if (rank == 0) {
-        DistributedPlanes planes(comm, result.header, slab, partition, traffic);
-        DistributedErrors remote(comm, scan.range, *errors, partition, traffic);
-        ContainerWriteOptions w = o.write;
-        w.ht_errors = &remote;
-        failure = run_local(
-            [&] {
-                injected("encode", "could not encode");
-                result.summary = write_container(planes, written, w);
-            },
-            rank);
-        planes.finish();
-    } else {
-        failure = run_local(
-            [&] {
-                serve_planes(comm, slab, *errors, traffic);
-                injected("encode", "could not serve planes " + std::to_string(za) + ".." + std::to_string(zb));
-            },
-            rank);
+    int pid = int(::getpid());
+    MPI_Bcast(&pid, 1, MPI_INT, 0, comm);
+    const std::string written =
+        (to_file ? output : std::string("tetlod-mpi-stdout")) + ".tetlod-mpi-" + std::to_string(pid) + ".tmp";
+    const HtEncodeOptions encode = container_ht_encode_options(o.write);
+    PlaneExchange exchange;
+    result.failure = run_phase(comm, [&] {
+        exchange = plan_exchange(domain, encode.brick_log2, partition, rank);
+        pack_planes(exchange, local, o.write.pad, *errors);
+    });
+    if (result.failure) return result;
+    exchange_planes(comm, exchange, traffic);
+    RankSections sections;
+    result.failure = run_phase(comm, [&] {
+        const double t = MPI_Wtime();
+        sections = encode_rank_rows(domain, encode, local, o.write.pad, *errors, partition, rank, exchange);
+        traffic.encode_seconds = MPI_Wtime() - t;
+        injected("encode", "could not encode the bricks of planes " + std::to_string(za) + ".." + std::to_string(zb));
+    });
+    name_conversion(result.failure);
+    if (result.failure) return result;
+    exchange = {};
+    errors.reset();
+    RankLayout layout;
+    {
+        tlod::Metadata meta = container_metadata(result.header, o.write);
+        meta.value_range = scan.range;
+        result.failure = lay_out(comm, domain, meta, encode, sections, layout, traffic);
     }
-    result.failure = agree(comm, failure);
-    if (rank == 0 && to_file) {
-        std::error_code ignored;
-        if (result.failure) std::filesystem::remove(written, ignored);
-        else
-            failure = run_local(
-                [&] {
-                    std::error_code ec;
+    if (result.failure) return result;
+    result.failure = write_sections(comm, written, layout, sections, traffic);
+    if (result.failure) return result;
+    sections = {};
+    failure.reset();
+    if (rank == 0) {
+        failure = run_local(
+            [&] {
+                std::error_code ec, ignored;
+                if (to_file) {
                     std::filesystem::rename(written, output, ec);
                     if (ec) {
                         std::filesystem::remove(written, ignored);
-                        throw Error(ErrorCode::IoError, "'" + output + "': cannot rename the written container into place: " +
+                        throw Error(ErrorCode::IoError, "'" + output +
+                                                            "': cannot rename the written container into place: " +
                                                             ec.message());
                     }
-                },
-                rank);
+                } else {
+                    // Standard output: MPI-IO cannot write there; copy the file.
+                    std::ifstream in(written, std::ios::binary);
+                    std::cout << in.rdbuf();
+                    std::cout.flush();
+                    in.close();
+                    std::filesystem::remove(written, ignored);
+                    if (!std::cout) throw Error(ErrorCode::IoError, "cannot write the container to standard output");
+                }
+            },
+            rank);
+        result.summary.bytes = to_file ? layout.file_size : 0;
+        result.summary.ht_k = domain.k;
+        result.summary.ht_max_level = domain.max_level();
     }
-    if (!result.failure && to_file) result.failure = agree(comm, rank == 0 ? failure : std::nullopt);
+    result.failure = agree(comm, failure);
     name_conversion(result.failure);
 
     // What each rank moved, gathered on rank 0 for the report.
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
     traffic.cpu_seconds = double(usage.ru_utime.tv_sec) + 1e-6 * double(usage.ru_utime.tv_usec);
-    constexpr int kFields = 8;
+    constexpr int kFields = 10;
     const double mine[kFields] = {double(traffic.bytes_read), double(traffic.bytes_sent),
                                   double(traffic.bytes_received), double(traffic.messages), traffic.read_seconds,
-                                  traffic.scan_seconds, traffic.error_seconds, traffic.cpu_seconds};
+                                  traffic.scan_seconds, traffic.error_seconds, traffic.cpu_seconds,
+                                  traffic.encode_seconds, double(traffic.bytes_written)};
     std::vector<double> all(rank == 0 ? std::size_t(kFields) * std::size_t(size) : 0);
     MPI_Gather(mine, kFields, MPI_DOUBLE, all.data(), kFields, MPI_DOUBLE, 0, comm);
     for (std::size_t r = 0; r * kFields < all.size(); ++r) {
         const double* v = all.data() + r * kFields;
         result.traffic.push_back(
-            SlabTraffic{uint64_t(v[0]), uint64_t(v[1]), uint64_t(v[2]), uint64_t(v[3]), v[4], v[5], v[6], v[7]});
+            SlabTraffic{uint64_t(v[0]), uint64_t(v[1]), uint64_t(v[2]), uint64_t(v[3]), v[4], v[5], v[6], v[8],
+                        uint64_t(v[9]), v[7]});
     }
     return result;
 }

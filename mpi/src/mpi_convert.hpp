@@ -1,13 +1,15 @@
 #pragma once
 // `tetlod convert FILE.h5:/dataset out.tlod` over MPI ranks: every rank reads
-// its slab of planes by collective hyperslab reads (parallel HDF5), rank 0 runs
-// the serial streaming HT encoder (write_container on VolumePlanes) and fetches
-// the planes it asks for from their owners. Same bytes as `tetlod convert` for
-// any number of ranks. What is distributed and what is not: docs/distributed.md.
+// its slab of planes by collective hyperslab reads (parallel HDF5), computes the
+// errors of its planes and encodes the rows of bricks starting there
+// (rank_encode.hpp); every rank writes its sections with MPI-IO at offsets
+// rank 0 lays out. Same bytes as `tetlod convert` for any number of ranks.
+// What is distributed and what is not: docs/distributed.md.
 //
 // Collective over `comm`. Failures on any rank end the call on every rank with
-// the same RankFailure (lowest failing rank); the output is written atomically
-// by rank 0, so a failure leaves nothing at `output`.
+// the same RankFailure (lowest failing rank); the output is written into a
+// temporary file renamed by rank 0 at the end, so a failure leaves nothing at
+// `output`.
 #include <mpi.h>
 
 #include <map>
@@ -31,8 +33,8 @@ struct MpiConvertOptions {
     /// (the environment variable TETLOD_MPI_TEST_FAIL_RANK in tetlod-mpi).
     int fail_rank = -1;
     /// ... in that phase: "read" (after its slab is read), "scan" (after its
-    /// first pass), "errors" (after its errors), "encode" (rank 0: during the
-    /// encode; others: while serving). TETLOD_MPI_TEST_FAIL_PHASE.
+    /// first pass), "errors" (after its errors), "encode" (after encoding its
+    /// rows of bricks). TETLOD_MPI_TEST_FAIL_PHASE.
     std::string fail_phase = "read";
 };
 

@@ -60,7 +60,7 @@ void warn_if_pinned() {
     if (sched_getaffinity(0, sizeof set, &set) != 0 || online <= 1) return;
     const int allowed = CPU_COUNT(&set);
     if (allowed < online)
-        std::cerr << "tetlod-mpi: note: rank 0 runs the encoder and may use " << allowed << " of " << online
+        std::cerr << "tetlod-mpi: note: rank 0 encodes with threads and may use " << allowed << " of " << online
                   << " cores here; give it the node (mpirun --bind-to none, or one rank per node)\n";
 }
 
@@ -109,14 +109,16 @@ int run(const Args& a, int rank, int size) {
         // "-": the container goes to standard output, the report to stderr.
         (a.output == "-" ? std::cerr : std::cout) << line.str();
         if (a.verbose > 0) {
-            std::cerr << "rank  bytes read  bytes sent  bytes received  messages  read s  scan s  errors s  user CPU s\n";
+            std::cerr << "rank  bytes read  bytes sent  bytes received  bytes written  messages  read s  scan s  errors s  "
+                         "encode s  user CPU s\n";
             for (std::size_t i = 0; i < r.traffic.size(); ++i) {
                 const auto& t = r.traffic[i];
-                char row[160];
-                std::snprintf(row, sizeof row, "%4zu %11llu %11llu %15llu %9llu %7.3f %7.3f %9.3f %11.3f\n", i,
-                              (unsigned long long)t.bytes_read, (unsigned long long)t.bytes_sent,
-                              (unsigned long long)t.bytes_received, (unsigned long long)t.messages, t.read_seconds,
-                              t.scan_seconds, t.error_seconds, t.cpu_seconds);
+                char row[200];
+                std::snprintf(row, sizeof row, "%4zu %11llu %11llu %15llu %14llu %9llu %7.3f %7.3f %9.3f %9.3f %11.3f\n",
+                              i, (unsigned long long)t.bytes_read, (unsigned long long)t.bytes_sent,
+                              (unsigned long long)t.bytes_received, (unsigned long long)t.bytes_written,
+                              (unsigned long long)t.messages, t.read_seconds, t.scan_seconds, t.error_seconds,
+                              t.encode_seconds, t.cpu_seconds);
                 std::cerr << row;
             }
         }
@@ -137,11 +139,11 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     CLI::App* convert = app.add_subcommand(
         "convert", "HDF5 dataset -> .tlod container (HT), byte for byte what `tetlod convert` writes");
     convert->add_option("input", a.input, "Input FILE.h5:/dataset (FILE.h5 alone: its only dataset)")->required();
-    convert->add_option("output", a.output, "Output .tlod file (written atomically by rank 0)")->required();
+    convert->add_option("output", a.output, "Output .tlod file (written by every rank into a temporary file, renamed at the end)")->required();
     convert->add_option("--axis-order", a.axis_order, "zyx (C order [z][y][x], default) or xyz (x slowest)")
         ->check(CLI::IsMember({"zyx", "xyz"}));
     convert->add_flag("--pad", a.pad, "Embed the data in the enclosing (2^k+1)^3 cube");
-    convert->add_option("--memory", a.memory, "Memory rank 0's encoder may use, e.g. 512M or 4G (default: a quarter of RAM)");
+    convert->add_option("--memory", a.memory, "Accepted for compatibility and checked; unused since every rank encodes its own rows (memory: docs/distributed.md)");
     convert->add_option("--meta", a.meta, "User metadata key=value (repeatable)");
     convert->add_option("--level", a.level, "zstd level of every section")->capture_default_str()->check(CLI::Range(1, 22));
     convert->add_option("--brick-log2", a.brick_log2, "Bricks of cycle t span 2^(t+1+N) grid steps")
@@ -151,7 +153,7 @@ int main_mpi(int argc, char** argv, int rank, int size) {
         ->capture_default_str()
         ->check(CLI::Range(0, 7));
     convert->footer("Examples:\n"
-                    "  mpirun -n 4 --bind-to none tetlod-mpi convert scan.h5:/volume scan.tlod   # rank 0 encodes with threads\n"
+                    "  mpirun -n 4 --bind-to none tetlod-mpi convert scan.h5:/volume scan.tlod   # every rank encodes with threads\n"
                     "  SOURCE_DATE_EPOCH=0 mpirun -n 2 tetlod-mpi convert scan.h5:/volume scan.tlod  # reproducible");
     try {
         app.parse(argc, argv);

@@ -271,3 +271,109 @@ TEST(StreamEncode, ErrorsComputedInPartsGiveTheSameBytes) {
         }
     }
 }
+
+namespace {
+
+/// The container tetlod-mpi writes with encoding on every process (§3.6 step
+/// 3): errors in `parts` ranges of planes, each part encoding the rows of
+/// bricks starting in its planes from lattice planes (its own or another
+/// part's errors), the file laid out from the sections' entries alone.
+std::vector<std::byte> rows_in_parts_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo, int parts) {
+    const HtDomain d = HtDomain::for_dims(v.dims, pad);
+    const int64_t planes = int64_t(d.box_max[2]) + 1;
+    auto source = planes_of(v);
+    HtScanPart scan;
+    for (int r = 0; r < parts; ++r) {
+        const HtScanPart part = ht_scan_planes(*source, pad, planes * r / parts, planes * (r + 1) / parts - 1);
+        if (r == 0) scan = part;
+        else ht_merge_scan(scan, part);
+    }
+    std::vector<std::unique_ptr<HtRangeErrors>> errors;
+    for (int r = 0; r < parts; ++r) {
+        errors.push_back(std::make_unique<HtRangeErrors>(*source, pad, scan.range, scan.coarse, planes * r / parts,
+                                                         planes * (r + 1) / parts - 1, 5));
+        errors.back()->compute();
+    }
+    std::vector<std::vector<std::byte>> maxima;
+    for (const auto& e : errors) maxima.push_back(e->partial_maxima());
+    for (int r = 0; r < parts; ++r) {
+        for (int q = 0; q < parts; ++q)
+            if (q != r) errors[std::size_t(r)]->merge_partial_maxima(maxima[std::size_t(q)].data(), maxima[std::size_t(q)].size());
+        errors[std::size_t(r)]->finish();
+    }
+    const auto owner = [&](int64_t z) {
+        for (int r = 0; r < parts; ++r)
+            if (z < planes * (r + 1) / parts) return r;
+        return parts - 1;
+    };
+    const std::size_t vs = value_size(v.type);
+    std::vector<HtSection> sections;
+    HtRowEncoder::ErrorStats stats;
+    // Parts in reverse order: the layout must not depend on the entries' order.
+    for (int r = parts; r-- > 0;) {
+        HtRowEncoder enc(d, v.type, eo);
+        for (const HtBrickRow& row : ht_rows_in(d, eo.brick_log2, planes * r / parts, planes * (r + 1) / parts - 1)) {
+            const auto w = ht_row_window(d, eo.brick_log2, row);
+            const std::size_t pp = std::size_t(ht_lattice_plane_points(d, row.t));
+            std::vector<std::byte> values;
+            std::vector<float> errs;
+            for (int64_t z = w[0]; z <= w[1]; z += int64_t{1} << row.t) {
+                values.resize(values.size() + pp * vs);
+                ht_lattice_values(*source, pad, row.t, z, values.data() + values.size() - pp * vs);
+                if (row.t < d.k) {
+                    const float* e = errors[std::size_t(owner(z))]->error_plane(row.t, z);
+                    errs.insert(errs.end(), e, e + pp);
+                }
+            }
+            enc.encode(row, values.data(), row.t < d.k ? errs.data() : nullptr, sections);
+        }
+        stats.raw_max = std::max(stats.raw_max, enc.error_stats().raw_max);
+        stats.always_split += enc.error_stats().always_split;
+    }
+    std::vector<HtSectionEntry> entries;
+    for (const HtSection& s : sections)
+        entries.push_back({s.type, s.flags, s.cycle, s.brick, s.bytes.size(), s.raw_size, s.checksum});
+    tlod::Metadata meta = meta_of(v);
+    meta.value_range = scan.range;
+    const HtContainerLayout layout = ht_distributed_layout(d, meta, stats, eo, entries);
+    std::vector<std::byte> file(layout.file_size);
+    EXPECT_LE(layout.head.size(), file.size());
+    std::copy(layout.head.begin(), layout.head.end(), file.begin());
+    for (std::size_t i = 0; i < sections.size(); ++i) {
+        EXPECT_LE(layout.offsets[i] + sections[i].bytes.size(), file.size());
+        std::copy(sections[i].bytes.begin(), sections[i].bytes.end(), file.begin() + std::ptrdiff_t(layout.offsets[i]));
+    }
+    // Every section exactly once: a missing one is refused.
+    entries.pop_back();
+    EXPECT_THROW(ht_distributed_layout(d, meta, stats, eo, entries), Error);
+    return file;
+}
+
+}  // namespace
+
+// Encoding on every process: rows of bricks encoded apart and laid out from
+// their entries give the serial bytes (rows whose windows cross parts, coarse
+// rows spanning every part, parts holding no row start, padded planes).
+TEST(StreamEncode, RowsEncodedInPartsGiveTheSameBytes) {
+    const std::vector<Case> cases = {
+        {{2, 2, 2}, ValueType::U8, test::Field::Noisy, false, 4},
+        {{65, 3, 5}, ValueType::F32, test::Field::Noisy, true, 2},
+        {{70, 41, 66}, ValueType::U8, test::Field::Smooth, false, 4},
+        {{70, 41, 66}, ValueType::U8, test::Field::Noisy, true, 1},
+        {{67, 35, 80}, ValueType::F64, test::Field::Noisy, false, 4},
+        {{66, 66, 66}, ValueType::I32, test::Field::Noisy, false, 3},
+        {{35, 34, 70}, ValueType::I8, test::Field::Constant, false, 1},
+    };
+    for (const Case& c : cases) {
+        const Volume v = test::make_volume(c.dims, c.type, c.field, 7);
+        HtEncodeOptions eo;
+        eo.brick_log2 = c.brick_log2;
+        eo.zstd_level = 3;
+        const auto want = streamed_bytes(v, c.pad, eo, std::size_t{1} << 30);
+        for (int parts : {1, 2, 3, 7}) {
+            const auto got = rows_in_parts_bytes(v, c.pad, eo, parts);
+            ASSERT_EQ(got.size(), want.size()) << name_of(c) << ", " << parts << " parts";
+            EXPECT_TRUE(got == want) << name_of(c) << ", " << parts << " parts";
+        }
+    }
+}

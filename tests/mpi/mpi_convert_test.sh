@@ -5,7 +5,7 @@
 # exit code, a message naming the file, and no output left behind.
 #
 #   mpi_convert_test.sh CASE TETLOD TETLOD_MPI MPIRUN WORKDIR [DATA_DIR]
-# CASE: awkward-u8 | awkward-f32 | real | failures
+# CASE: awkward-u8 | awkward-f32 | bricks | real | failures
 set -uo pipefail
 case_name=$1 tetlod=$2 tetlod_mpi=$3 mpirun=$4 work=$5 data=${6:-}
 
@@ -85,6 +85,24 @@ awkward-f32)
         cmp serial_pad.tlod "mpi${n}_pad.tlod" || fail "f32 --pad, -n $n differs"
         echo "ok: f32 --pad, -n $n: byte-identical"
     done
+    ;;
+bricks)
+    # Encoding on every rank (step 3): 130 planes give cycle 0 five rows of
+    # bricks (two or three per rank at -n 2, several bricks per row), cycle 1
+    # a row of planes 64..127 that spans ranks 0 and 1 at -n 2 (and three
+    # ranks at -n 4), the coarse cycles rows spanning every rank; --brick-log2 2
+    # at -n 3 gives rows of 8 planes, many per rank, and windows across slabs.
+    make_h5 multiscale 70,66,130 u8 bricks_u8
+    convert_and_compare bricks_u8.h5:/volume bricks
+    "$tetlod" -q convert bricks_u8.h5:/volume serial_b2.tlod --brick-log2 2 || fail "serial --brick-log2 2"
+    run_mpi 3 -q convert bricks_u8.h5:/volume mpi3_b2.tlod --brick-log2 2 || fail "mpi --brick-log2 2"
+    cmp serial_b2.tlod mpi3_b2.tlod || fail "--brick-log2 2, -n 3 differs"
+    echo "ok: 70x66x130 --brick-log2 2, -n 3: byte-identical"
+    # To standard output: the ranks write a temporary file rank 0 copies out.
+    run_mpi 2 -q convert bricks_u8.h5:/volume - > mpi2_stdout.tlod || fail "mpi to stdout"
+    cmp serial_bricks.tlod mpi2_stdout.tlod || fail "-n 2 to standard output differs"
+    [ -z "$(ls -A | grep '\.tmp$')" ] || fail "temporary file left after writing to stdout"
+    echo "ok: -n 2 to standard output: byte-identical"
     ;;
 real)
     raw="$data/headsq_64x64x93_int16.raw"

@@ -33,7 +33,8 @@ namespace tetlod {
 
 // ---- writing ----
 
-class HtErrorSource;  // codecs/ht/ht_codec.hpp
+class HtErrorSource;      // codecs/ht/ht_codec.hpp
+struct HtEncodeOptions;  // codecs/ht/ht_codec.hpp
 
 struct ContainerWriteOptions {
     bool ht = true, mt = false;  // models to store (at least one)
@@ -79,6 +80,14 @@ struct ContainerWriteSummary {
 /// A quarter of the machine's physical memory (at least 256 MiB): what
 /// out-of-core conversion plans for unless told otherwise.
 std::size_t default_memory_budget();
+
+/// The METADATA write_container records for a volume with this header (its
+/// value range left at {0, 0}: the encoder's first pass sets it), with the
+/// provenance of `options`; for writers that assemble the container
+/// themselves (tetlod-mpi), so they record exactly the same keys.
+tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOptions& options);
+/// The HT encoder's options write_container uses for `options`.
+HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& options);
 
 /// The same container written from a volume read plane by plane: with the
 /// HT alone, in memory bounded by options.memory_bytes rather than by the

@@ -82,6 +82,19 @@ std::size_t default_memory_budget() {
     return std::max<std::size_t>(physical / 4, std::size_t{256} << 20);
 }
 
+tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOptions& o) {
+    return with_provenance(tlod::metadata_for_volume(header, {0, 0}), o);
+}
+
+HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
+    check_options(o);
+    HtEncodeOptions e;
+    e.zstd_level = o.zstd_level;
+    e.brick_log2 = o.brick_log2;
+    e.error_mantissa_bits = o.error_bits;
+    return e;
+}
+
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
@@ -92,9 +105,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
     Stopwatch clock;
     HtStreamEncodeOptions so;
     so.pad = o.pad;
-    so.encode.zstd_level = o.zstd_level;
-    so.encode.brick_log2 = o.brick_log2;
-    so.encode.error_mantissa_bits = o.error_bits;
+    so.encode = container_ht_encode_options(o);
     so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
     so.errors = o.ht_errors;
     if (o.progress)
@@ -102,7 +113,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
             o.progress(std::string(stage) + " HT", std::size_t(done), std::size_t(total));
         };
     // The value range is filled in by the encoder's first pass.
-    const tlod::Metadata meta = with_provenance(tlod::metadata_for_volume(source.header(), {0, 0}), o);
+    const tlod::Metadata meta = container_metadata(source.header(), o);
     const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, so);
     if (o.progress) o.progress("encoded HT", 0, 0);
     ContainerWriteSummary summary;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ht_chunk_geometry.hpp"
+#include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 
 namespace tetlod::ht_detail {
@@ -45,6 +46,12 @@ struct ErrorSummary {
         raw_max_ = std::max(raw_max_, o.raw_max_);
         always_split += o.always_split;
     }
+    /// The largest error below the limit (merge_raw: another part's).
+    float raw_max() const { return raw_max_; }
+    void merge_raw(float raw_max, uint64_t always) {
+        raw_max_ = std::max(raw_max_, raw_max);
+        always_split += always;
+    }
     float max_finite() const { return dequantize_error(quantize_error(raw_max_, m_), m_); }
     void write_to(tlod::Metadata& md) const {
         char buf[64];
@@ -60,5 +67,17 @@ private:
     float limit_;
     float raw_max_ = 0;
 };
+
+/// The sections an HT container starts with (METADATA with the error
+/// summary, HT_HEADER), added to `w` with its features: shared by the
+/// streaming encoder and the distributed layout so both write the same head.
+inline void add_ht_leading_sections(tlod::ContainerWriter& w, const HtDomain& d, tlod::Metadata md,
+                                    const ErrorSummary& errors, const HtEncodeOptions& o) {
+    errors.write_to(md);
+    w.set_features(tlod::kFeatureHt);
+    w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md), o.zstd_level);
+    const auto hh = ht_header_bytes(d, o.brick_log2, o.error_mantissa_bits);
+    w.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
+}
 
 }  // namespace tetlod::ht_detail

@@ -415,14 +415,8 @@ private:
     }
 
     void assemble(const tlod::Metadata& meta) {
-        tlod::Metadata md = meta;
-        errors_.write_to(md);
         tlod::ContainerWriter w;
-        w.set_features(tlod::kFeatureHt);
-        w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
-              o_.encode.zstd_level);
-        const auto hh = ht_header_bytes(d_, o_.encode.brick_log2, m_);
-        w.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
+        add_ht_leading_sections(w, d_, meta, errors_, o_.encode);
         for (std::size_t i = 0; i < chunks_.size(); ++i) {
             const HtChunk& c = chunks_[i];
             const SpilledChunk& s = spilled_[i];
@@ -506,6 +500,29 @@ int64_t multiples_in(int64_t z1, int64_t z2, int t) {
 }
 
 }  // namespace
+
+int64_t ht_lattice_plane_points(const HtDomain& d, int t) { return lattice_plane_points(d, t); }
+
+void ht_lattice_values(VolumePlanes& source, bool pad, int t, int64_t z, std::byte* out) {
+    const Volume& h = source.header();
+    const HtDomain d = HtDomain::for_dims(h.dims, pad);
+    if (t < 0 || t > d.k || z < 0 || z > d.box_max[2] || (z & ((int64_t{1} << t) - 1)))
+        throw Error(ErrorCode::InvalidArgument, "ht_lattice_values: not a lattice plane of the cycle");
+    BoxPlanes box(source, d);
+    std::vector<std::byte> plane(box.plane_bytes());
+    box.read(z, 1, plane.data());
+    const std::size_t vs = value_size(h.type);
+    const int64_t bx = int64_t(d.box_max[0]) + 1, by = int64_t(d.box_max[1]) + 1, step = int64_t{1} << t;
+    if (t == 0) {
+        std::memcpy(out, plane.data(), plane.size());
+        return;
+    }
+    for (int64_t y = 0; y < by; y += step)
+        for (int64_t x = 0; x < bx; x += step) {
+            std::memcpy(out, plane.data() + std::size_t(y * bx + x) * vs, vs);
+            out += vs;
+        }
+}
 
 std::array<int64_t, 2> ht_source_planes_for(const HtDomain& d, const Dims& source, int64_t za, int64_t zb) {
     if (za > zb) return {0, -1};

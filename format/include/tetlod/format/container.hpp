@@ -173,6 +173,20 @@ public:
     /// Compresses `raw` with zstd at `level` and appends it.
     void add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
              std::span<const std::byte> raw, int level);
+    /// Appends a section whose stored bytes someone else writes at its offset
+    /// (a distributed writer: each process writes the sections it encoded).
+    /// finish() and write() refuse a writer holding such a section.
+    void add_external(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, uint64_t stored_size,
+                      uint64_t raw_size, uint64_t checksum);
+
+    /// The sections' offsets in the file, in the order they were added.
+    std::vector<uint64_t> section_offsets() const;
+    /// The file's first bytes: the header, the table and the stored bytes of
+    /// the sections before the first spilled or external one (what a
+    /// distributed writer's coordinator writes at offset 0).
+    std::vector<std::byte> leading_bytes() const;
+    /// The size of the whole file.
+    uint64_t file_size() const;
 
     /// The whole file in memory.
     std::vector<std::byte> finish() const;
@@ -181,12 +195,14 @@ public:
 
 private:
     std::vector<std::byte> head_bytes() const;
+    void refuse_external() const;
     Header header_;
     std::vector<SectionInfo> sections_;
     struct Payload {
         std::vector<std::byte> bytes;
         SpillFile* spill = nullptr;  // else the bytes are at [offset, offset + stored size) of it
         uint64_t offset = 0;
+        bool external = false;  // written by someone else (add_external)
     };
     std::vector<Payload> payloads_;
 };

@@ -12,7 +12,13 @@
 //     once; larger ones are partial maxima over the rows of za..zb, merged
 //     over all processes (a maximum of partial maxima is exact in any
 //     grouping), then finish() writes their errors.
-//  3. The process that encodes passes an HtErrorSource to the encoder
+//  3. Every process encodes the rows of bricks starting in its planes
+//     (ht_rows_in, HtRowEncoder) from the lattice planes of each row's window
+//     (ht_row_window; values from ht_lattice_values, errors from the owner
+//     of each plane), and the sections' sizes and checksums go to one
+//     process, which lays out the file (ht_distributed_layout): the bytes at
+//     offset 0 and every section's offset; each process writes its sections
+//     there. Or (step 2): one process encodes, passing an HtErrorSource to the encoder
 //     (HtStreamEncodeOptions::errors) that serves those errors, for instance
 //     packed (ht_pack_errors) and sent by their owners.
 #include <array>
@@ -22,6 +28,7 @@
 
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/volume_planes.hpp"
+#include "tetlod/format/metadata.hpp"
 #include "tetlod/models/ht/ht_error_sweep.hpp"
 
 namespace tetlod {
@@ -80,5 +87,78 @@ private:
 /// ((box_max.x >> t) + 1) * ((box_max.y >> t) + 1) floats, as error_plane().
 std::size_t ht_packed_error_floats(const HtDomain& domain, int64_t z1, int64_t z2);
 void ht_unpack_errors(const HtDomain& domain, int64_t z1, int64_t z2, const float* packed, HtErrorPlaneSink& sink);
+
+// ---- Encoding on every process (docs/distributed.md §3.6 step 3) ----
+
+/// The points of a lattice plane of cycle t: ((box_max.x >> t) + 1) * ((box_max.y >> t) + 1).
+int64_t ht_lattice_plane_points(const HtDomain& domain, int t);
+/// Plane z of B (a multiple of 2^t) on the lattice of spacing 2^t, as the
+/// encoder's buffers hold it: ht_lattice_plane_points(t) values of the
+/// source's type, written to `out`. Reads source plane min(z, dims.z - 1).
+void ht_lattice_values(VolumePlanes& source, bool pad, int t, int64_t z, std::byte* out);
+
+/// A row of bricks: those of cycle t whose brick index along z is `row`.
+/// Chunks of one cycle are independent, so rows are what processes share out.
+struct HtBrickRow {
+    int t = 0;
+    int64_t row = 0;
+};
+/// The rows of every cycle whose first plane (row * 2^(t+1+brick_log2)) lies
+/// in za..zb (empty when za > zb), coarse cycles first, rows ascending.
+std::vector<HtBrickRow> ht_rows_in(const HtDomain& domain, int brick_log2, int64_t za, int64_t zb);
+/// The planes of B a row's coders read: {lo, hi}, both multiples of 2^t; the
+/// lattice planes lo, lo + 2^t, ..., hi are what HtRowEncoder::encode takes.
+std::array<int64_t, 2> ht_row_window(const HtDomain& domain, int brick_log2, HtBrickRow row);
+
+/// One stored HT chunk section (HT_FIELD or HT_ERRORS of chunk (cycle, brick)).
+struct HtSection {
+    uint32_t type = 0, flags = 0, cycle = 0, brick = 0;
+    uint64_t raw_size = 0, checksum = 0;
+    std::vector<std::byte> bytes;
+};
+
+/// Encodes rows of bricks into exactly the sections write_ht_container_streaming
+/// writes for them, and sums up their errors for METADATA.
+class HtRowEncoder {
+public:
+    HtRowEncoder(const HtDomain& domain, ValueType type, const HtEncodeOptions& options);
+    /// `values`: the lattice planes of ht_row_window(row) (ht_lattice_values
+    /// each); `errors`: the same planes' errors of cycle t (as
+    /// HtErrorPlaneSink::error_plane holds them), null when t == k. Appends the
+    /// row's sections, for each brick ascending its field then its errors.
+    /// Uses the calling thread and TBB's.
+    void encode(HtBrickRow row, const std::byte* values, const float* errors, std::vector<HtSection>& out);
+    /// What METADATA summarizes of the errors encoded (merge those of every
+    /// process: a maximum and a count, exact in any order).
+    struct ErrorStats {
+        float raw_max = 0;
+        uint64_t always_split = 0;
+    };
+    ErrorStats error_stats() const { return stats_; }
+
+private:
+    HtDomain d_;
+    ValueType type_;
+    HtEncodeOptions o_;
+    ErrorStats stats_;
+};
+
+/// Size, flags and checksum of a section encoded somewhere (HtSection without its bytes).
+struct HtSectionEntry {
+    uint32_t type = 0, flags = 0, cycle = 0, brick = 0;
+    uint64_t stored_size = 0, raw_size = 0, checksum = 0;
+};
+/// Where a container's bytes go when its chunk sections were encoded apart.
+struct HtContainerLayout {
+    std::vector<std::byte> head;    // written at offset 0: header, table, METADATA, HT_HEADER
+    std::vector<uint64_t> offsets;  // of entries[i]
+    uint64_t file_size = 0;
+};
+/// The layout of the container write_ht_container_streaming writes, given the
+/// entries of every chunk section (in any order; each exactly once, else
+/// InvalidArgument), the metadata it would take (value range set), the
+/// merged error stats and the options.
+HtContainerLayout ht_distributed_layout(const HtDomain& domain, tlod::Metadata meta, HtRowEncoder::ErrorStats stats,
+                                        const HtEncodeOptions& options, const std::vector<HtSectionEntry>& entries);
 
 }  // namespace tetlod
