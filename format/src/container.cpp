@@ -261,8 +261,11 @@ void ContainerWriter::add_stored(uint32_t type, uint32_t flags, uint32_t arg0, u
     payloads_.push_back(Payload{std::move(stored), nullptr, 0});
 }
 
-void ContainerWriter::add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, SpillFile& spill,
-                                  uint64_t offset, uint64_t stored_size, uint64_t raw_size, uint64_t checksum) {
+namespace {
+
+/// The table entry of a section whose bytes are stored elsewhere (spill or another writer).
+SectionInfo section_entry(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, uint64_t stored_size,
+                          uint64_t raw_size, uint64_t checksum) {
     SectionInfo s;
     s.type = type;
     s.flags = flags;
@@ -271,7 +274,14 @@ void ContainerWriter::add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, 
     s.arg0 = arg0;
     s.arg1 = arg1;
     s.checksum = checksum;
-    sections_.push_back(s);
+    return s;
+}
+
+}  // namespace
+
+void ContainerWriter::add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, SpillFile& spill,
+                                  uint64_t offset, uint64_t stored_size, uint64_t raw_size, uint64_t checksum) {
+    sections_.push_back(section_entry(type, flags, arg0, arg1, stored_size, raw_size, checksum));
     payloads_.push_back(Payload{{}, &spill, offset});
 }
 
@@ -282,15 +292,7 @@ void ContainerWriter::add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t
 
 void ContainerWriter::add_external(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1, uint64_t stored_size,
                                    uint64_t raw_size, uint64_t checksum) {
-    SectionInfo s;
-    s.type = type;
-    s.flags = flags;
-    s.stored_size = stored_size;
-    s.raw_size = raw_size;
-    s.arg0 = arg0;
-    s.arg1 = arg1;
-    s.checksum = checksum;
-    sections_.push_back(s);
+    sections_.push_back(section_entry(type, flags, arg0, arg1, stored_size, raw_size, checksum));
     Payload p;
     p.external = true;
     payloads_.push_back(std::move(p));
