@@ -206,22 +206,24 @@ private:
     const std::vector<std::unique_ptr<HtRangeErrors>>& parts_;
 };
 
-/// The streaming encoder's bytes with range and errors computed in `parts`
-/// ranges of B planes (ht_distributed.hpp), merged as tetlod-mpi merges them.
-std::vector<std::byte> distributed_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo, int parts) {
-    const HtDomain d = HtDomain::for_dims(v.dims, pad);
-    const int64_t planes = int64_t(d.box_max[2]) + 1;
-    auto source = planes_of(v);
+/// The scan and the final errors of `parts` ranges of planes, merged as tetlod-mpi
+/// merges them (every part gets the others' partial maxima).
+struct ErrorsInParts {
     HtScanPart scan;
-    for (int r = 0; r < parts; ++r) {
-        const HtScanPart part = ht_scan_planes(*source, pad, planes * r / parts, planes * (r + 1) / parts - 1);
-        if (r == 0) scan = part;
-        else ht_merge_scan(scan, part);
-    }
     std::vector<std::unique_ptr<HtRangeErrors>> errors;
+};
+ErrorsInParts errors_in_parts(VolumePlanes& source, const HtDomain& d, bool pad, int parts) {
+    const int64_t planes = int64_t(d.box_max[2]) + 1;
+    ErrorsInParts out;
     for (int r = 0; r < parts; ++r) {
-        errors.push_back(std::make_unique<HtRangeErrors>(*source, pad, scan.range, scan.coarse, planes * r / parts,
-                                                         planes * (r + 1) / parts - 1, 5));
+        const HtScanPart part = ht_scan_planes(source, pad, planes * r / parts, planes * (r + 1) / parts - 1);
+        if (r == 0) out.scan = part;
+        else ht_merge_scan(out.scan, part);
+    }
+    auto& errors = out.errors;
+    for (int r = 0; r < parts; ++r) {
+        errors.push_back(std::make_unique<HtRangeErrors>(source, pad, out.scan.range, out.scan.coarse,
+                                                         planes * r / parts, planes * (r + 1) / parts - 1, 5));
         errors.back()->compute();
     }
     std::vector<std::vector<std::byte>> maxima;
@@ -231,6 +233,15 @@ std::vector<std::byte> distributed_bytes(const Volume& v, bool pad, const HtEnco
             if (q != r) errors[std::size_t(r)]->merge_partial_maxima(maxima[std::size_t(q)].data(), maxima[std::size_t(q)].size());
         errors[std::size_t(r)]->finish();
     }
+    return out;
+}
+
+/// The streaming encoder's bytes with range and errors computed in `parts`
+/// ranges of B planes (ht_distributed.hpp), merged as tetlod-mpi merges them.
+std::vector<std::byte> distributed_bytes(const Volume& v, bool pad, const HtEncodeOptions& eo, int parts) {
+    const HtDomain d = HtDomain::for_dims(v.dims, pad);
+    auto source = planes_of(v);
+    auto [scan, errors] = errors_in_parts(*source, d, pad, parts);
     PartsSource from_parts(scan.range, errors);
     TempPath out("distributed.tlod");
     HtStreamEncodeOptions so;
@@ -282,25 +293,7 @@ std::vector<std::byte> rows_in_parts_bytes(const Volume& v, bool pad, const HtEn
     const HtDomain d = HtDomain::for_dims(v.dims, pad);
     const int64_t planes = int64_t(d.box_max[2]) + 1;
     auto source = planes_of(v);
-    HtScanPart scan;
-    for (int r = 0; r < parts; ++r) {
-        const HtScanPart part = ht_scan_planes(*source, pad, planes * r / parts, planes * (r + 1) / parts - 1);
-        if (r == 0) scan = part;
-        else ht_merge_scan(scan, part);
-    }
-    std::vector<std::unique_ptr<HtRangeErrors>> errors;
-    for (int r = 0; r < parts; ++r) {
-        errors.push_back(std::make_unique<HtRangeErrors>(*source, pad, scan.range, scan.coarse, planes * r / parts,
-                                                         planes * (r + 1) / parts - 1, 5));
-        errors.back()->compute();
-    }
-    std::vector<std::vector<std::byte>> maxima;
-    for (const auto& e : errors) maxima.push_back(e->partial_maxima());
-    for (int r = 0; r < parts; ++r) {
-        for (int q = 0; q < parts; ++q)
-            if (q != r) errors[std::size_t(r)]->merge_partial_maxima(maxima[std::size_t(q)].data(), maxima[std::size_t(q)].size());
-        errors[std::size_t(r)]->finish();
-    }
+    auto [scan, errors] = errors_in_parts(*source, d, pad, parts);
     const auto owner = [&](int64_t z) {
         for (int r = 0; r < parts; ++r)
             if (z < planes * (r + 1) / parts) return r;

@@ -99,7 +99,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    mt::BuildProgress progress(options.progress, cells, passes);
+    mt::BuildProgress progress(options.progress, passes);
     progress.start();
     for (int pass = 0; pass < int(passes.size()); ++pass) {
         const mt::PassFaces& faces = passes[size_t(pass)];

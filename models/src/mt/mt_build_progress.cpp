@@ -5,9 +5,8 @@
 
 namespace tetlod::mt {
 
-BuildProgress::BuildProgress(std::function<void(uint64_t, uint64_t)> report, std::array<int64_t, 3> cells,
-                             std::vector<PassFaces> passes)
-    : report_(std::move(report)), cells_(cells), passes_(std::move(passes)) {
+BuildProgress::BuildProgress(std::function<void(uint64_t, uint64_t)> report, std::vector<PassFaces> passes)
+    : report_(std::move(report)), passes_(std::move(passes)) {
     if (!report_) return;
     for (const PassFaces& faces : passes_) {
         uint64_t points = 1;  // every brick's points, shared faces once per brick

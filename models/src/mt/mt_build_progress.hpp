@@ -21,10 +21,9 @@ namespace tetlod::mt {
 
 class BuildProgress {
 public:
-    /// `cells`: cells per axis; `passes`: the brick faces of each pass, first to last
+    /// `passes`: the brick faces of each pass, first to last
     /// (the last pass holds one brick). `report` may be empty (then nothing is done).
-    BuildProgress(std::function<void(uint64_t, uint64_t)> report, std::array<int64_t, 3> cells,
-                  std::vector<PassFaces> passes);
+    BuildProgress(std::function<void(uint64_t, uint64_t)> report, std::vector<PassFaces> passes);
     /// Reports (0, total).
     void start();
     /// A brick of pass `pass` has done about `fraction` (0..1) of its work; `reported`
@@ -41,7 +40,6 @@ private:
     uint64_t share(int pass, const BrickBox& box) const;
 
     std::function<void(uint64_t, uint64_t)> report_;
-    std::array<int64_t, 3> cells_;
     std::vector<PassFaces> passes_;
     uint64_t total_ = 0, done_ = 0;
     std::mutex mutex_;
