@@ -121,31 +121,116 @@ CheckOptions structure_only() {
     return o;
 }
 
-/// Flips bytes of the decompressed payload, re-frames it, and decodes: the decoder
+/// The raw streams of a coding-2 payload (spec/tlod-format.md §10.2): per stream
+/// a u64 raw length, a u64 frame length and the zstd frame (none when empty).
+std::vector<std::vector<std::byte>> unframe(const std::vector<uint8_t>& bytes) {
+    std::vector<std::vector<std::byte>> streams;
+    size_t at = 48;
+    while (at < bytes.size()) {
+        uint64_t len = 0, frame = 0;
+        std::memcpy(&len, bytes.data() + at, 8);
+        std::memcpy(&frame, bytes.data() + at + 8, 8);
+        at += 16;
+        std::vector<std::byte> raw;
+        if (len != 0) {
+            auto r = tlod::zstd_decompress(
+                std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + at), frame), len);
+            EXPECT_TRUE(r.ok());
+            if (r.ok()) raw = std::move(r.value());
+        }
+        streams.push_back(std::move(raw));
+        at += frame;
+    }
+    return streams;
+}
+
+/// Header + streams framed again as coding 2, with the header's sizes updated.
+std::vector<uint8_t> reframe(const std::vector<uint8_t>& bytes, const std::vector<std::vector<std::byte>>& streams) {
+    std::vector<uint8_t> file(bytes.begin(), bytes.begin() + 48);
+    uint64_t raw_size = 0;
+    for (const auto& st : streams) {
+        const std::vector<std::byte> z = st.empty() ? std::vector<std::byte>{} : tlod::zstd_compress(st, 1);
+        const uint64_t len = st.size(), zs = z.size();
+        raw_size += 8 + len;
+        const auto* lb = reinterpret_cast<const uint8_t*>(&len);
+        const auto* zb = reinterpret_cast<const uint8_t*>(&zs);
+        file.insert(file.end(), lb, lb + 8);
+        file.insert(file.end(), zb, zb + 8);
+        const auto* fb = reinterpret_cast<const uint8_t*>(z.data());
+        file.insert(file.end(), fb, fb + z.size());
+    }
+    const uint64_t stored = file.size() - 48;
+    std::memcpy(file.data() + 32, &raw_size, 8);
+    std::memcpy(file.data() + 40, &stored, 8);
+    return file;
+}
+
+TEST(MtCodec, WritesCodingTwoWithElevenStreams) {
+    const Built b = build({6, 5, 7}, ValueType::U8, Field::Noisy);
+    const auto bytes = encode_mt(b.model);
+    EXPECT_EQ(bytes[4] | (bytes[5] << 8), 2);
+    const auto streams = unframe(bytes);
+    ASSERT_EQ(streams.size(), 11u);
+    const size_t nu = b.model.updates().size();
+    EXPECT_EQ(streams[1].size(), nu);  // one near-offset byte per update
+    EXPECT_EQ(streams[4].size(), nu);  // error code high bytes
+    EXPECT_EQ(streams[5].size(), nu);  // error code low bytes
+    EXPECT_TRUE(streams[10].empty());  // field not included
+    EXPECT_TRUE(reframe(bytes, streams) != bytes);  // level 1, not the writer's 19
+    ASSERT_TRUE(decode_mt(reframe(bytes, streams), &b.vol).ok());
+}
+
+/// Flips single bits of the 16-byte header of every stream in the stored
+/// payload (its raw and frame lengths): every flip must be refused cleanly.
+TEST(MtCodec, HostileStreamFramesAreRefused) {
+    const Built b = build({5, 4, 6}, ValueType::U8, Field::Smooth);
+    const auto bytes = encode_mt(b.model);
+    std::vector<size_t> heads;
+    for (size_t at = 48; at < bytes.size();) {
+        heads.push_back(at);
+        uint64_t frame = 0;
+        std::memcpy(&frame, bytes.data() + at + 8, 8);
+        at += 16 + frame;
+    }
+    ASSERT_EQ(heads.size(), 11u);
+    int refused = 0;
+    for (size_t h : heads)
+        for (size_t i = h; i < h + 16; ++i)
+            for (int bit = 0; bit < 8; ++bit) {
+                auto mut = bytes;
+                mut[i] ^= uint8_t(1u << bit);
+                auto r = decode_mt(mut, &b.vol);
+                ASSERT_FALSE(r.ok()) << "byte " << i << " bit " << bit;
+                EXPECT_TRUE(r.failure().code == ErrorCode::Truncated || r.failure().code == ErrorCode::CorruptData ||
+                            r.failure().code == ErrorCode::TooLarge)
+                    << r.failure().message;
+                EXPECT_EQ(r.failure().message.rfind("MT", 0), 0u) << r.failure().message;
+                ++refused;
+            }
+    EXPECT_EQ(refused, 11 * 16 * 8);
+}
+
+/// Flips bits of the decompressed streams, re-frames them, and decodes: the decoder
 /// must refuse with a decoder error code, or give a model whose extractions either
 /// fail with CorruptData or are valid, conforming meshes covering the box.
 TEST(MtCodec, HostileStreamsNeverCrash) {
     const Built b = build({6, 5, 7}, ValueType::U8, Field::Noisy);
     const auto bytes = encode_mt(b.model);
-    uint64_t raw_size = 0, stored = 0;
-    std::memcpy(&raw_size, bytes.data() + 32, 8);
-    std::memcpy(&stored, bytes.data() + 40, 8);
-    auto raw = tlod::zstd_decompress(
-        std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data() + 48), stored), raw_size);
-    ASSERT_TRUE(raw.ok());
+    const auto streams = unframe(bytes);
+    size_t total = 0;
+    for (const auto& st : streams) total += st.size();
+    ASSERT_GT(total, 0u);
     std::mt19937 rng(5);
     int decoded = 0, refused = 0, extracted = 0, extraction_refused = 0;
     for (int iter = 0; iter < 400; ++iter) {
-        std::vector<std::byte> mut = raw.value();
+        auto mut = streams;
         const int flips = 1 + int(rng() % 3);
-        for (int f = 0; f < flips; ++f) mut[rng() % mut.size()] ^= std::byte(uint8_t(1u << (rng() % 8)));
-        const auto z = tlod::zstd_compress(mut, 1);
-        std::vector<uint8_t> file(bytes.begin(), bytes.begin() + 48);
-        const uint64_t rs = mut.size(), zs = z.size();
-        std::memcpy(file.data() + 32, &rs, 8);
-        std::memcpy(file.data() + 40, &zs, 8);
-        const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
-        file.insert(file.end(), zb, zb + z.size());
+        for (int f = 0; f < flips; ++f) {
+            size_t at = rng() % total, k = 0;
+            while (at >= mut[k].size()) at -= mut[k].size(), ++k;
+            mut[k][at] ^= std::byte(uint8_t(1u << (rng() % 8)));
+        }
+        const std::vector<uint8_t> file = reframe(bytes, mut);
         auto r = decode_mt(file, &b.vol);
         if (!r.ok()) {
             ++refused;

@@ -15,7 +15,8 @@
 
 namespace tetlod {
 
-inline constexpr uint16_t kMtCodecVersion = 1;
+/// The coding encode_mt writes; decode_mt also reads coding 1.
+inline constexpr uint16_t kMtCodecVersion = 2;
 
 struct MtEncodeOptions {
     int zstd_level = 19;
