@@ -1,9 +1,11 @@
 // libFuzzer target: the MT decoder (docs/mt.md §5) on arbitrary bytes. The first
 // byte picks the mode: even, the rest is an encode_mt byte string as stored; odd,
-// the rest is a 48-byte MT header and the *raw* payload, which the harness
-// compresses itself (fixing the two size fields) so mutations reach the stream
-// parser behind the zstd frame. Accepted models are extracted; extraction may
-// refuse with CorruptData, never crash.
+// the rest is a 48-byte MT header and the *raw* payload (streams as u64 length +
+// bytes), which the harness compresses itself as the header's coding says (coding
+// 1: one frame; otherwise a frame per stream, coding 2) and fixes the two size
+// fields, so mutations reach the stream parser behind the zstd frames. Accepted
+// models are extracted; extraction may refuse with CorruptData, never crash.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -20,13 +22,38 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::vector<uint8_t> bytes(data + 1, data + size);
     if ((data[0] & 1) && bytes.size() >= 48) {
         std::span<const std::byte> raw(reinterpret_cast<const std::byte*>(bytes.data() + 48), bytes.size() - 48);
-        const std::vector<std::byte> z = tlod::zstd_compress(raw, 1);
+        const bool one_frame = bytes[4] == 1 && bytes[5] == 0;
+        std::vector<uint8_t> payload;
+        uint64_t rs = raw.size();
+        if (one_frame) {
+            const std::vector<std::byte> z = tlod::zstd_compress(raw, 1);
+            const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
+            payload.assign(zb, zb + z.size());
+        } else {
+            rs = 0;
+            for (std::size_t at = 0; at + 8 <= raw.size();) {
+                uint64_t len = 0;
+                std::memcpy(&len, raw.data() + at, 8);
+                at += 8;
+                len = std::min<uint64_t>(len, raw.size() - at);
+                const std::vector<std::byte> z =
+                    len ? tlod::zstd_compress(raw.subspan(at, len), 1) : std::vector<std::byte>{};
+                const uint64_t zs = z.size();
+                const auto* lb = reinterpret_cast<const uint8_t*>(&len);
+                const auto* zl = reinterpret_cast<const uint8_t*>(&zs);
+                const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
+                payload.insert(payload.end(), lb, lb + 8);
+                payload.insert(payload.end(), zl, zl + 8);
+                payload.insert(payload.end(), zb, zb + z.size());
+                rs += 8 + len;
+                at += len;
+            }
+        }
         bytes.resize(48);
-        const uint64_t rs = raw.size(), zs = z.size();
+        const uint64_t zs = payload.size();
         std::memcpy(bytes.data() + 32, &rs, 8);
         std::memcpy(bytes.data() + 40, &zs, 8);
-        const auto* zb = reinterpret_cast<const uint8_t*>(z.data());
-        bytes.insert(bytes.end(), zb, zb + z.size());
+        bytes.insert(bytes.end(), payload.begin(), payload.end());
     }
     // A field for headers that do not include one: small dims only (as the header says).
     Volume field;

@@ -129,7 +129,8 @@ int main(int argc, char** argv) {
     put(root / "ht_sections/v3_u8_9x9x5_sparse", ht_parts(sparse({9, 9, 5}), 1, false));
     put(root / "ht_sections/v3_u8_9x9x5_constant", ht_parts(sparse({9, 9, 5}), 1, false, 1));
     put(root / "ht_sections/v3_u16_9x5x5_linear", ht_parts(linear({9, 5, 5}), 1, false, 3));
-    // MT: stored bytes (mode 0) and header + raw payload (mode 1), with and without the field.
+    // MT coding 2: stored bytes (mode 0) and header + raw payload (mode 1), with and
+    // without the field. (The coding-1 seeds, *_coding1_*, were written by the 2.1 writer and are kept.)
     for (auto [name, d, t] : {std::tuple{"u8_5x4x3", Dims{5, 4, 3}, ValueType::U8},
                               std::tuple{"f32_4x4x4", Dims{4, 4, 4}, ValueType::F32}}) {
         const Volume v = sample(d, t, 4);
@@ -140,13 +141,21 @@ int main(int argc, char** argv) {
             const auto b = encode_mt(m, o);
             std::string stored = std::string(1, '\0') + std::string(b.begin(), b.end());
             put(root / "mt" / (std::string(name) + (with_field ? "_field" : "") + "_stored"), stored);
-            uint64_t rs = 0, zs = 0;
-            std::memcpy(&rs, b.data() + 32, 8);
-            std::memcpy(&zs, b.data() + 40, 8);
-            auto raw = tlod::zstd_decompress(
-                std::span<const std::byte>(reinterpret_cast<const std::byte*>(b.data() + 48), zs), rs);
-            std::string mode1 = std::string(1, '\1') + std::string(b.begin(), b.begin() + 48) +
-                                std::string(reinterpret_cast<const char*>(raw->data()), raw->size());
+            // Mode 1 takes coding 1's raw layout (u64 length + bytes per stream):
+            // the frames of coding 2 decompressed one by one.
+            std::string mode1 = std::string(1, '\1') + std::string(b.begin(), b.begin() + 48);
+            for (std::size_t at = 48; at < b.size();) {
+                uint64_t len = 0, zs = 0;
+                std::memcpy(&len, b.data() + at, 8);
+                std::memcpy(&zs, b.data() + at + 8, 8);
+                mode1.append(reinterpret_cast<const char*>(b.data() + at), 8);
+                if (len != 0) {
+                    auto raw = tlod::zstd_decompress(
+                        std::span<const std::byte>(reinterpret_cast<const std::byte*>(b.data() + at + 16), zs), len);
+                    mode1.append(reinterpret_cast<const char*>(raw->data()), raw->size());
+                }
+                at += 16 + zs;
+            }
             put(root / "mt" / (std::string(name) + (with_field ? "_field" : "") + "_raw"), mode1);
         }
     }
