@@ -9,13 +9,14 @@
 //   Coding 2 (written): the same content in 11 streams, each holding one kind of
 //     symbol, because zstd's literal coder is order-0 per block: mixing small
 //     offsets with varint escapes, or the high and low bytes of error codes, or a
-//     mask's cut with its gaps, blurs the statistics it can exploit (5-9 % fewer
+//     mask's cut with its gaps, blurs the statistics it can exploit (2-10 % fewer
 //     bytes on the real volumes of the bench):
 //     0 base, 1 near offsets (one byte per update: (dx+2) + 5(dy+2) + 25(dz+2)
 //     when every component is in -2..2, else 125), 2 far offsets (3 zigzag varints
 //     per update whose near byte is 125), 3 labels, 4 error code high bytes,
 //     5 error code low bytes, 6 stars, 7 mask cuts, 8 mask exception counts,
-//     9 mask gaps, 10 field.
+//     9 mask exceptions (the first as a signed offset from the cut, where the
+//     exceptions cluster; then gaps), 10 field.
 // Updates appear in raster order of their inserted point w, which is every grid
 // point that is not a vertex of the base mesh.
 #include <algorithm>
@@ -94,10 +95,15 @@ void encode_mask(const MtModel& m, size_t k, std::vector<uint8_t>& cuts, std::ve
     }
     put_varint(cuts, best_c);
     put_varint(counts, best_exc);
+    // Exceptions cluster around the cut: the first is coded from it (signed), the
+    // others as gaps from the previous one.
     uint32_t prev = 0;
+    bool first = true;
     for (uint32_t i = 0; i < d; ++i) {
         const bool expect = i < best_c;
-        if (m.mask_bit(at + i) != expect) put_varint(gaps, i - prev), prev = i;
+        if (m.mask_bit(at + i) == expect) continue;
+        put_varint(gaps, first ? zigzag(int64_t(i) - int64_t(best_c)) : i - prev);
+        prev = i, first = false;
     }
 }
 
@@ -349,9 +355,18 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
         uint64_t pos = 0;
         for (uint64_t e = 0; e < exc; ++e) {
             const uint64_t gap = in.gaps->varint();
-            if (!in.gaps->ok || (e > 0 && gap == 0) || gap >= d || pos + gap >= d)
-                return fail(ErrorCode::CorruptData, "MT: bad mask exception");
-            pos += gap;
+            if (!in.gaps->ok) return fail(ErrorCode::CorruptData, "MT: bad mask exception");
+            if (e == 0 && version != 1) {
+                // Coding 2: the first exception relative to the cut, signed.
+                if (gap >= (uint64_t(1) << 40)) return fail(ErrorCode::CorruptData, "MT: bad mask exception");
+                const int64_t at = int64_t(cut) + unzigzag(gap);  // no overflow: both below 2^40
+                if (at < 0 || uint64_t(at) >= d) return fail(ErrorCode::CorruptData, "MT: bad mask exception");
+                pos = uint64_t(at);
+            } else {
+                if ((e > 0 && gap == 0) || gap >= d || pos + gap >= d)
+                    return fail(ErrorCode::CorruptData, "MT: bad mask exception");
+                pos += gap;
+            }
             bits[(nbits + pos) >> 6] ^= uint64_t(1) << ((nbits + pos) & 63);
         }
         nbits += d;
