@@ -29,9 +29,10 @@ namespace tetlod::mpi {
 struct MpiDecodeOptions {
     bool force = false;  // replace an existing dataset (-f), as `tetlod -f decode`
     /// Planes are decoded and written in batches of at most this many bytes
-    /// per rank (at least one plane): each collective write stays far below
-    /// MPI-IO's 2 GiB per call, and a rank's buffer is bounded.
-    std::size_t batch_bytes = std::size_t{64} << 20;
+    /// per rank (at least one plane), as the serial writer's 16 MiB: a rank's
+    /// buffer is bounded whatever its slab, and each collective write stays far
+    /// below MPI-IO's 2 GiB per call.
+    std::size_t batch_bytes = std::size_t{16} << 20;
     /// Testing only: this rank fails while decoding its first batch
     /// (TETLOD_MPI_TEST_FAIL_RANK in tetlod-mpi, with TETLOD_MPI_TEST_FAIL_PHASE=decode).
     int fail_rank = -1;
