@@ -102,10 +102,13 @@ int run_decode(const Args& a, int rank, int size) {
         std::cerr << "rank  planes       bytes written  decode s  write s  user CPU s  peak RSS MB\n";
         for (std::size_t i = 0; i < r.traffic.size(); ++i) {
             const auto& t = r.traffic[i];
+            char planes[40] = "none";  // more ranks than rows of bricks
+            if (t.planes > 0)
+                std::snprintf(planes, sizeof planes, "%lld..%lld", (long long)t.z0, (long long)(t.z0 + t.planes - 1));
             char row[200];
-            std::snprintf(row, sizeof row, "%4zu %5lld..%-5lld %13llu %9.3f %8.3f %11.3f %12.1f\n", i,
-                          (long long)t.z0, (long long)(t.z0 + t.planes - 1), (unsigned long long)t.bytes_written,
-                          t.decode_seconds, t.write_seconds, t.cpu_seconds, t.peak_rss_mb);
+            std::snprintf(row, sizeof row, "%4zu %-12s %13llu %9.3f %8.3f %11.3f %12.1f\n", i, planes,
+                          (unsigned long long)t.bytes_written, t.decode_seconds, t.write_seconds, t.cpu_seconds,
+                          t.peak_rss_mb);
             std::cerr << row;
         }
     }

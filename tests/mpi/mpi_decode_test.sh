@@ -84,6 +84,11 @@ awkward)
     "$tetlod" -q sample noisy b1.raw --dims 21,9,41 --dtype u8 || fail "sample b1"
     "$tetlod" -q convert b1.raw b1.tlod --dims 21,9,41 --dtype u8 --brick-log2 1 || fail "convert b1"
     decode_and_compare b1.tlod b1 3
+    # A padded container (--pad: the HT's box is 65^3, the volume 37x29x41),
+    # f64, 5 ranks on 2 rows of bricks.
+    "$tetlod" -q sample noisy pad.raw --dims 37,29,41 --dtype f64 || fail "sample pad"
+    "$tetlod" -q convert pad.raw pad.tlod --dims 37,29,41 --dtype f64 --pad || fail "convert --pad"
+    decode_and_compare pad.tlod pad 5
     # FILE.h5 alone: the serial default /volume.
     run_mpi 2 -q decode u8.tlod plain.h5 || fail "decode to plain.h5"
     same_dataset serial_u8.h5 plain.h5 || fail "FILE.h5 alone differs"
