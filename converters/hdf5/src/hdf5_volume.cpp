@@ -114,6 +114,9 @@ void write_hdf5_with(const Volume& vol, const std::string& file, const std::stri
         throw Error(ErrorCode::InvalidArgument, what + ": deflate level must be 0..9");
     silence_hdf5();
 
+    // A temporary copy of the file (atomicity, other datasets kept), the
+    // dataset, its samples, its attributes: the steps hdf5_dataset_write.cpp
+    // shares with the parallel writer of tetlod-mpi (hdf5_mpi_write.cpp).
     OutputPolicy* policy = active_output_policy();
     StagedOutput out = stage_output(file, dataset, policy);
     {
