@@ -5,10 +5,13 @@
 # of each, the speed-up of -n 2 over -n 1 and over the serial tool, the load
 # (uptime) before each run, the bytes each rank read, sent and wrote (-v), and checks
 # that every container is byte-identical to the serial one.
+# Then the same for decoding that container to HDF5: `tetlod decode` against
+# `mpirun -n 1|2 --bind-to core tetlod-mpi decode` (a new file each run), each
+# dataset checked against the serial one (h5dump's binary dump of the values).
 #
-#   bench/bench_mpi.sh BUILD_DIR [SIZE=513] [REPEAT=2] [WORKDIR=/tmp/tetlod_bench_mpi]
+#   bench/bench_mpi.sh BUILD_DIR [SIZE=513] [REPEAT=2] [WORKDIR=/tmp/tetlod_bench_mpi] [WHAT=convert,decode]
 set -euo pipefail
-build=$(cd "$1" && pwd) size=${2:-513} repeat=${3:-2} work=${4:-/tmp/tetlod_bench_mpi}
+build=$(cd "$1" && pwd) size=${2:-513} repeat=${3:-2} work=${4:-/tmp/tetlod_bench_mpi} what=${5:-convert,decode}
 tetlod=$build/tools/tetlod tetlod_mpi=$build/mpi/tetlod-mpi
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
 export SOURCE_DATE_EPOCH=0
@@ -20,6 +23,7 @@ if [ ! -f "ms$size.h5" ]; then
 fi
 in="ms$size.h5:/volume"
 
+best() { sort -g "$1.walls" | head -1; }
 # run LABEL CMD...: wall and user CPU (children) seconds into $wall $user.
 run() {
     local label=$1; shift
@@ -32,6 +36,7 @@ run() {
     printf '%-8s wall %7.2f s  user CPU (all processes) %7.2f s  load before: %s\n' "$label" "$wall" "$u" "$load"
     echo "$wall" >> "$label.walls"
 }
+if [[ $what == *convert* ]]; then
 rm -f serial.walls n1.walls n2.walls
 for i in $(seq "$repeat"); do
     run serial "$tetlod" -q convert "$in" serial.tlod -f
@@ -39,7 +44,6 @@ for i in $(seq "$repeat"); do
     run n2 mpirun -n 2 --bind-to none "$tetlod_mpi" -v -f convert "$in" n2.tlod
     cmp serial.tlod n1.tlod && cmp serial.tlod n2.tlod || { echo "FAIL: containers differ"; exit 1; }
 done
-best() { sort -g "$1.walls" | head -1; }
 s=$(best serial) a=$(best n1) b=$(best n2)
 echo "per rank, last -n 1 run:"; grep -A2 '^rank' n1.err | head -3
 echo "per rank, last -n 2 run:"; grep -A3 '^rank' n2.err | head -4
@@ -49,4 +53,25 @@ for f in n1 n2; do
 done
 printf 'minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s\n' "$s" "$a" "$b"
 printf 'speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod convert (containers byte-identical)\n' \
+    "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"
+fi
+
+[[ $what == *decode* ]] || exit 0
+[ -f serial.tlod ] || "$tetlod" -q convert "$in" serial.tlod
+values() { h5dump -d /volume -b NATIVE -o "$1.bin" "$1" > /dev/null; }
+rm -f dserial.walls dn1.walls dn2.walls
+for i in $(seq "$repeat"); do
+    rm -f dserial.h5 dn1.h5 dn2.h5
+    run dserial "$tetlod" -q decode serial.tlod dserial.h5:/volume
+    run dn1 mpirun -n 1 --bind-to core "$tetlod_mpi" -v decode serial.tlod dn1.h5:/volume
+    run dn2 mpirun -n 2 --bind-to core "$tetlod_mpi" -v decode serial.tlod dn2.h5:/volume
+    values dserial.h5 && values dn1.h5 && values dn2.h5
+    cmp dserial.h5.bin dn1.h5.bin && cmp dserial.h5.bin dn2.h5.bin || { echo "FAIL: datasets differ"; exit 1; }
+    rm -f dserial.h5.bin dn1.h5.bin dn2.h5.bin
+done
+echo "decode per rank, last -n 1 run:"; grep -A1 '^rank' dn1.err
+echo "decode per rank, last -n 2 run:"; grep -A2 '^rank' dn2.err
+s=$(best dserial) a=$(best dn1) b=$(best dn2)
+printf 'decode minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s\n' "$s" "$a" "$b"
+printf 'decode speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod decode (datasets identical)\n' \
     "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"

@@ -35,9 +35,10 @@ file(GLOB _tetlod_include_dirs LIST_DIRECTORIES true
   ${PROJECT_SOURCE_DIR}/*/include ${PROJECT_SOURCE_DIR}/*/*/include)
 foreach(dir IN LISTS _tetlod_include_dirs)
   if(IS_DIRECTORY ${dir}/tetlod AND NOT dir MATCHES "/(tests|bench|fuzz|build[^/]*)/")
-    # hdf5_mpi.hpp belongs to tetlod-mpi's private reader (not installed).
+    # hdf5_mpi.hpp and hdf5_mpi_write.hpp belong to tetlod-mpi's private reader
+    # and writer (not installed).
     install(DIRECTORY ${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-      FILES_MATCHING PATTERN "*.hpp" PATTERN "hdf5_mpi.hpp" EXCLUDE)
+      FILES_MATCHING PATTERN "*.hpp" PATTERN "hdf5_mpi.hpp" EXCLUDE PATTERN "hdf5_mpi_write.hpp" EXCLUDE)
   endif()
 endforeach()
 foreach(dir ${PROJECT_BINARY_DIR}/api/generated ${PROJECT_BINARY_DIR}/converters/volume_formats/generated)

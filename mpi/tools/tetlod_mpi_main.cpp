@@ -1,6 +1,7 @@
-// tetlod-mpi: the distributed converter, run under mpirun. One subcommand so
-// far, `convert FILE.h5:/dataset out.tlod`, with the flags of `tetlod convert`
-// that apply to it and the same exit codes (exit_code.hpp).
+// tetlod-mpi: the distributed converter, run under mpirun. Two subcommands,
+// `convert FILE.h5:/dataset out.tlod` and `decode in.tlod FILE.h5:/dataset`,
+// with the flags of `tetlod convert` and `tetlod decode` that apply to them and
+// the same exit codes (exit_code.hpp). The work is in mpi/src.
 //
 // Why a program of its own rather than `mpirun tetlod convert`: it links the
 // parallel libhdf5 (MPI-IO), and `tetlod` links the serial one; the two export
@@ -21,6 +22,7 @@
 #include "byte_size.hpp"
 #include "exit_code.hpp"
 #include "mpi_convert.hpp"
+#include "mpi_decode.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/utf8.hpp"
 
@@ -67,6 +69,52 @@ void warn_if_pinned() {
 // The exit code of an agreed failure, as `tetlod` maps the same error.
 int exit_code_of(const mpi::RankFailure& f) { return f.internal ? 1 : exit_code_for(f.code); }
 
+// Rank 0 prints the agreed failure; every rank returns its exit code.
+int report_failure(const mpi::RankFailure& f, int rank) {
+    if (rank == 0) {
+        const std::string where = f.rank != 0 ? "rank " + std::to_string(f.rank) + ": " : "";
+        std::cerr << "tetlod-mpi: " << (f.internal ? "internal error: " : "error: ") << where << f.message << "\n";
+    }
+    return exit_code_of(f);
+}
+
+int run_decode(const Args& a, int rank, int size) {
+    mpi::MpiDecodeOptions o;
+    o.force = a.force;
+    const char* phase = std::getenv("TETLOD_MPI_TEST_FAIL_PHASE");
+    if (const char* f = std::getenv("TETLOD_MPI_TEST_FAIL_RANK"); f && phase && std::string(phase) == "decode")
+        o.fail_rank = std::atoi(f);
+    const double t0 = MPI_Wtime();
+    const mpi::MpiDecodeResult r = mpi::decode_mpi(MPI_COMM_WORLD, a.input, a.output, o);
+    if (r.failure) return report_failure(*r.failure, rank);
+    if (rank != 0 || a.quiet) return 0;
+    if (!r.lost_keys.empty()) {  // as `tetlod decode` warns
+        std::string keys;
+        for (const auto& k : r.lost_keys) keys += (keys.empty() ? "'" : ", '") + k + "'";
+        std::cerr << "tetlod-mpi: warning: '" << a.output << "' cannot hold metadata " << keys << "; written without "
+                  << (r.lost_keys.size() == 1 ? "it" : "them") << "\n";
+    }
+    const Dims d = r.header.dims;
+    std::cout << "wrote " << a.output << ": " << d.x << "x" << d.y << "x" << d.z << " "
+              << value_type_name(r.header.type) << ", " << size << (size == 1 ? " rank" : " ranks") << ", "
+              << MPI_Wtime() - t0 << " s\n";
+    if (a.verbose > 0) {
+        std::cerr << "rank  planes       bytes written  decode s  write s  user CPU s  peak RSS MB\n";
+        for (std::size_t i = 0; i < r.traffic.size(); ++i) {
+            const auto& t = r.traffic[i];
+            char planes[40] = "none";  // more ranks than rows of bricks
+            if (t.planes > 0)
+                std::snprintf(planes, sizeof planes, "%lld..%lld", (long long)t.z0, (long long)(t.z0 + t.planes - 1));
+            char row[200];
+            std::snprintf(row, sizeof row, "%4zu %-12s %13llu %9.3f %8.3f %11.3f %12.1f\n", i, planes,
+                          (unsigned long long)t.bytes_written, t.decode_seconds, t.write_seconds, t.cpu_seconds,
+                          t.peak_rss_mb);
+            std::cerr << row;
+        }
+    }
+    return 0;
+}
+
 int run(const Args& a, int rank, int size) {
     check_meta(a.meta);
     mpi::MpiConvertOptions o;
@@ -93,14 +141,7 @@ int run(const Args& a, int rank, int size) {
     if (rank == 0 && !a.quiet) warn_if_pinned();
     const double t0 = MPI_Wtime();
     const mpi::MpiConvertResult r = mpi::convert_mpi(MPI_COMM_WORLD, a.input, a.output, o);
-    if (r.failure) {
-        if (rank == 0) {
-            const std::string where = r.failure->rank != 0 ? "rank " + std::to_string(r.failure->rank) + ": " : "";
-            std::cerr << "tetlod-mpi: " << (r.failure->internal ? "internal error: " : "error: ") << where
-                      << r.failure->message << "\n";
-        }
-        return exit_code_of(*r.failure);
-    }
+    if (r.failure) return report_failure(*r.failure, rank);
     if (rank == 0 && !a.quiet) {
         std::ostringstream line;
         line << "wrote " << a.output << ": " << r.summary.bytes << " bytes, HT k = " << r.summary.ht_k
@@ -127,7 +168,7 @@ int run(const Args& a, int rank, int size) {
 }
 
 int main_mpi(int argc, char** argv, int rank, int size) {
-    CLI::App app{"tetlod-mpi: distributed conversion of HDF5 volumes to .tlod containers (run under mpirun)"};
+    CLI::App app{"tetlod-mpi: distributed conversion of HDF5 volumes to .tlod containers and back (run under mpirun)"};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("tetlod-mpi ") + TETLOD_VERSION_STRING);
     Args a;
@@ -155,17 +196,28 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     convert->footer("Examples:\n"
                     "  mpirun -n 4 --bind-to none tetlod-mpi convert scan.h5:/volume scan.tlod   # every rank encodes with threads\n"
                     "  SOURCE_DATE_EPOCH=0 mpirun -n 2 tetlod-mpi convert scan.h5:/volume scan.tlod  # reproducible");
+    CLI::App* decode = app.add_subcommand(
+        "decode", ".tlod container -> HDF5 dataset, the dataset `tetlod decode` writes (values and attributes)");
+    decode->add_option("input", a.input, "Input .tlod file (holding the HT)")->required();
+    decode->add_option("output", a.output,
+                       "Output FILE.h5:/dataset (FILE.h5 alone: /volume); an existing file keeps its other datasets")
+        ->required();
+    decode->footer("Every rank decodes its slab of planes (rows of the finest bricks) and writes it with\n"
+                   "collective hyperslab writes into a temporary copy of the file, renamed at the end.\n"
+                   "Examples:\n"
+                   "  mpirun -n 4 tetlod-mpi decode scan.tlod scan.h5:/volume\n"
+                   "  mpirun -n 2 tetlod-mpi -f decode scan.tlod scans.h5:/run2/volume   # replace that dataset");
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         // Every rank parses the same arguments; rank 0 alone speaks.
         if (rank != 0) return e.get_exit_code() == 0 ? 0 : 2;
         if (e.get_exit_code() == 0) return app.exit(e);
-        std::cerr << "tetlod-mpi: error: " << e.what() << "\nRun 'tetlod-mpi convert --help' for usage.\n";
+        std::cerr << "tetlod-mpi: error: " << e.what() << "\nRun 'tetlod-mpi --help' for usage.\n";
         return 2;
     }
     try {
-        return run(a, rank, size);
+        return decode->parsed() ? run_decode(a, rank, size) : run(a, rank, size);
     } catch (const Error& e) {  // before any collective step (bad flags): the same on every rank
         if (rank == 0) std::cerr << "tetlod-mpi: error: " << e.what() << "\n";
         return exit_code_for(e.code());
