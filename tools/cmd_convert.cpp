@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -28,6 +29,7 @@ struct ConvertArgs {
     int error_bits = 4;
     double max_shape_ratio = kDefaultMtMaxShapeRatio;
     std::string model = "ht";
+    std::string max_error;  // empty: lossless
     std::string memory;  // empty: default_memory_budget()
     bool in_memory = false;
 };
@@ -50,6 +52,17 @@ int run_convert(const ConvertArgs& a) {
                         "--meta: the " + std::string(bad < eq ? "key" : "value") + " of entry " +
                             std::to_string(&kv - a.meta.data() + 1) + " is not valid UTF-8 (byte " +
                             std::to_string(bad) + " of the argument); give UTF-8 text");
+    }
+    // --max-error is parsed like --error; a percentage waits for the value range.
+    std::optional<ErrorThreshold> max_error;
+    if (!a.max_error.empty()) {
+        max_error = ErrorThreshold::parse(a.max_error, "--max-error");
+        if (!(max_error->value >= 0) || !std::isfinite(max_error->value))
+            throw Error(ErrorCode::InvalidArgument,
+                        "--max-error '" + a.max_error + "': expected a finite bound >= 0 (0: lossless)");
+        if (max_error->value > 0 && with_mt)
+            throw Error(ErrorCode::InvalidArgument,
+                        "--max-error applies to the HT alone (--model ht): a lossy container holds no MT");
     }
     const std::size_t memory = a.memory.empty() ? default_memory_budget() : parse_byte_size(a.memory, "--memory");
     auto add_meta = [&](std::map<std::string, std::string>& md) {
@@ -95,6 +108,18 @@ int run_convert(const ConvertArgs& a) {
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
+    if (max_error && max_error->value > 0) {
+        // Percent of the original's range: one more read when streaming.
+        const std::array<double, 2> range =
+            !max_error->percent ? std::array<double, 2>{0, 0}
+            : planes            ? planes_value_range(*planes)
+                                : planes_value_range(*planes_of(*whole));
+        wo.max_error = max_error->resolve(range);
+        if (!(wo.max_error > 0))
+            detail("--max-error " + a.max_error + " is 0 for this volume: stored losslessly");
+        else
+            detail("lossy: every sample within " + format_max_error(wo.max_error) + " of the original");
+    }
     wo.source_path = a.input;
     wo.converter = "tetlod convert";
     wo.progress = [&](const std::string& stage, std::size_t done, std::size_t total) {
@@ -135,6 +160,7 @@ int run_convert(const ConvertArgs& a) {
 
     std::error_code size_error;  // "-" (standard output) has no size
     const uint64_t size = std::filesystem::file_size(a.output, size_error);
+    if (wo.max_error > 0) summary += ", lossy: every sample within " + format_max_error(wo.max_error);
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
           << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())
@@ -164,6 +190,11 @@ const CommandRegistration registration{Command{
         sub.add_flag("--in-memory", a->in_memory,
                      "Read the whole volume first and build the HT in memory (faster when it fits)")
             ->group(g);
+        sub.add_option("--max-error", a->max_error,
+                       "Lossy archival: store a field whose every sample is within E of the original "
+                       "(absolute, or P% of the value range); error bounds, so extract --error, stay "
+                       "stated against the original. 0: lossless (default). HT only")
+            ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--level", a->level, "zstd level of every section")
             ->capture_default_str()
@@ -188,6 +219,7 @@ const CommandRegistration registration{Command{
         sub.footer("Examples:\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod --model ht,mt\n"
+                   "  tetlod convert neghip_64x64x64_uint8.raw neghip_lossy.tlod --max-error 0.5%\n"
                    "  tetlod convert ct.raw ct.tlod --dims 512,512,300 --dtype i16 --meta patient=anon");
         return [a] { return run_convert(*a); };
     }}};

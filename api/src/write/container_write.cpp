@@ -8,10 +8,12 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <cmath>
 #include <optional>
 
 #include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/container.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
@@ -72,6 +74,14 @@ void check_options(const ContainerWriteOptions& o) {
     check_range("zstd level", o.zstd_level, 1, 22);
     check_range("brick_log2", o.brick_log2, 1, 16);
     check_range("error bits", o.error_bits, 0, 7);
+    if (!(o.max_error >= 0) || !std::isfinite(o.max_error))
+        throw Error(ErrorCode::InvalidArgument, "max error " + std::to_string(o.max_error) + ": expected a finite value >= 0");
+    if (o.max_error > 0 && o.mt)
+        throw Error(ErrorCode::InvalidArgument,
+                    "a lossy container (max error > 0) holds the HT only: the MT's errors would not "
+                    "include the field's loss; convert the MT losslessly");
+    if (o.max_error > 0 && o.ht_errors)
+        throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
 }
 
 }  // namespace
@@ -106,6 +116,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
     HtStreamEncodeOptions so;
     so.pad = o.pad;
     so.encode = container_ht_encode_options(o);
+    so.encode.max_error = o.max_error;
     so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
     so.errors = o.ht_errors;
     if (o.progress)
@@ -114,7 +125,11 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
         };
     // The value range is filled in by the encoder's first pass.
     const tlod::Metadata meta = container_metadata(source.header(), o);
-    const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, so);
+    // Lossy: the encoder sees the quantized planes (a function of each sample,
+    // so both passes read the same field); the range it records is theirs.
+    std::unique_ptr<VolumePlanes> quantized;
+    if (o.max_error > 0) quantized = quantized_planes(source, o.max_error);
+    const HtStreamEncodeSummary s = write_ht_container_streaming(quantized ? *quantized : source, meta, path, so);
     if (o.progress) o.progress("encoded HT", 0, 0);
     ContainerWriteSummary summary;
     summary.ht_k = s.domain.k;
@@ -128,6 +143,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
 ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
     check_options(o);
     Stopwatch clock;
+    if (o.max_error > 0) quantize_volume(volume, o.max_error);  // before the range is recorded
     auto progress = [&](const char* stage, std::size_t done, std::size_t total) {
         if (o.progress) o.progress(stage, done, total);
     };
@@ -155,6 +171,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         eo.zstd_level = o.zstd_level;
         eo.brick_log2 = o.brick_log2;
         eo.error_mantissa_bits = o.error_bits;
+        eo.max_error = o.max_error;
         if (o.progress)
             eo.progress = [&](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
         encode_ht(model, meta, w, eo);

@@ -34,6 +34,11 @@ struct HtEncodeOptions {
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
+    /// Format 3.1 lossy archival (spec §5.1): > 0 marks the file LOSSY with
+    /// field.max_error = E. The field given to the encoder must already be
+    /// within E of the original (quantize_volume, quantized_planes); the errors
+    /// coded are those of that field, readers add E.
+    double max_error = 0;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
 };
@@ -133,6 +138,10 @@ struct HtLayout {
     /// 2 = class-ordered range coding (format 2.x), 3 = a mode per chunk
     /// section, one of them range coding 2 (format 3.x).
     int residual_coding = 2;
+    /// Format 3.1, LOSSY feature: every stored sample is within this E of the
+    /// original and the decoded error bounds include it (stored code + E);
+    /// 0: the field is the original (lossless).
+    double max_error = 0;
     std::vector<HtChunk> chunks;  // file order: cycle k first, then k-1, ..., 0
 };
 Expected<HtLayout> read_ht_layout(tlod::ContainerReader& reader);
