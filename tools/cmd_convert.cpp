@@ -75,7 +75,9 @@ int run_convert(const ConvertArgs& a) {
     // format that reads planes (raw, NRRD, MetaImage, HDF5, OpenVDB); the
     // rest (formats added without open_planes) reads the volume whole.
     std::unique_ptr<VolumePlanes> planes;
-    if (with_ht && !with_mt && !a.in_memory) planes = open_volume_planes(a.input, a.volume.options());
+    // A lossy field is chosen over the whole volume in the coder's order: read whole.
+    const bool lossy = max_error && max_error->value > 0;
+    if (with_ht && !with_mt && !a.in_memory && !lossy) planes = open_volume_planes(a.input, a.volume.options());
     std::optional<Volume> whole;
     if (planes) {
         Volume h = planes->header();
@@ -86,7 +88,8 @@ int run_convert(const ConvertArgs& a) {
         if (!a.memory.empty() && !a.in_memory)
             detail("note: " + a.input + " is read whole (" +
                    std::string(with_mt ? "the MT is built in memory"
-                                       : "its format is not read plane by plane") +
+                               : lossy   ? "--max-error chooses the field over the whole volume"
+                                         : "its format is not read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);
@@ -115,10 +118,8 @@ int run_convert(const ConvertArgs& a) {
             : planes            ? planes_value_range(*planes)
                                 : planes_value_range(*planes_of(*whole));
         wo.max_error = max_error->resolve(range);
-        if (!(wo.max_error > 0))
-            detail("--max-error " + a.max_error + " is 0 for this volume: stored losslessly");
-        else
-            detail("lossy: every sample within " + format_max_error(wo.max_error) + " of the original");
+        detail("--max-error " + a.max_error + " = " + format_max_error(wo.max_error) +
+               " in field units (integers honour its integer part); the volume is read whole");
     }
     wo.source_path = a.input;
     wo.converter = "tetlod convert";
@@ -160,7 +161,8 @@ int run_convert(const ConvertArgs& a) {
 
     std::error_code size_error;  // "-" (standard output) has no size
     const uint64_t size = std::filesystem::file_size(a.output, size_error);
-    if (wo.max_error > 0) summary += ", lossy: every sample within " + format_max_error(wo.max_error);
+    if (written.max_error > 0) summary += ", lossy: every sample within " + format_max_error(written.max_error);
+    else if (wo.max_error > 0) summary += ", lossless (--max-error below 1 on integers)";
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
           << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())

@@ -72,7 +72,9 @@ struct ContainerWriteOptions {
     /// > 0 stores a field whose every sample is within max_error of the
     /// original (quantized, then coded losslessly) and error bounds stated
     /// against the original (readers add max_error). HT only (with the MT:
-    /// InvalidArgument). 0: lossless, the same bytes as without it.
+    /// InvalidArgument). 0: lossless, the same bytes as without it. Integer
+    /// volumes honour (and state) floor(max_error); below 1 they stay lossless.
+    /// The volume is read whole (the lossy field is chosen in the coder's order).
     double max_error = 0;
 };
 
@@ -81,6 +83,8 @@ struct ContainerWriteSummary {
     int ht_k = -1, ht_max_level = -1;     // HT: L = 2^k, levels 0..max_level (-1: no HT)
     uint64_t mt_updates = 0, mt_base_tets = 0;
     double seconds = 0;
+    /// The bound stated in a lossy container (stored_max_error of the option; 0: lossless).
+    double max_error = 0;
 };
 
 /// A quarter of the machine's physical memory (at least 256 MiB): what

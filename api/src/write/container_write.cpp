@@ -108,15 +108,15 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
-    if (o.mt) {
-        // The MT is built from the whole volume: read it, then the usual path.
+    if (o.mt || o.max_error > 0) {
+        // The MT is built from the whole volume, and the lossy field is chosen
+        // in the coder's order over the whole volume: read it, then the usual path.
         return write_container(read_all_planes(source), path, o);
     }
     Stopwatch clock;
     HtStreamEncodeOptions so;
     so.pad = o.pad;
     so.encode = container_ht_encode_options(o);
-    so.encode.max_error = o.max_error;
     so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
     so.errors = o.ht_errors;
     if (o.progress)
@@ -125,11 +125,7 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
         };
     // The value range is filled in by the encoder's first pass.
     const tlod::Metadata meta = container_metadata(source.header(), o);
-    // Lossy: the encoder sees the quantized planes (a function of each sample,
-    // so both passes read the same field); the range it records is theirs.
-    std::unique_ptr<VolumePlanes> quantized;
-    if (o.max_error > 0) quantized = quantized_planes(source, o.max_error);
-    const HtStreamEncodeSummary s = write_ht_container_streaming(quantized ? *quantized : source, meta, path, so);
+    const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, so);
     if (o.progress) o.progress("encoded HT", 0, 0);
     ContainerWriteSummary summary;
     summary.ht_k = s.domain.k;
@@ -143,7 +139,13 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
 ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
     check_options(o);
     Stopwatch clock;
-    if (o.max_error > 0) quantize_volume(volume, o.max_error);  // before the range is recorded
+    // Lossy (before the range is recorded): integers can only honour floor(E),
+    // so that is the bound stated (0: the lossless file, exact bounds).
+    const double max_error = stored_max_error(volume.type, o.max_error);
+    if (max_error > 0) {
+        if (o.pad) quantize_volume(volume, max_error);  // the padded cube is coded: sample by sample
+        else quantize_predicted(volume, o.brick_log2, max_error);
+    }
     auto progress = [&](const char* stage, std::size_t done, std::size_t total) {
         if (o.progress) o.progress(stage, done, total);
     };
@@ -171,7 +173,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         eo.zstd_level = o.zstd_level;
         eo.brick_log2 = o.brick_log2;
         eo.error_mantissa_bits = o.error_bits;
-        eo.max_error = o.max_error;
+        eo.max_error = max_error;
         if (o.progress)
             eo.progress = [&](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
         encode_ht(model, meta, w, eo);
@@ -190,6 +192,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     std::error_code size_error;  // "-" (standard output) has no size
     summary.bytes = std::filesystem::file_size(path, size_error);
     summary.seconds = clock.seconds();
+    summary.max_error = max_error;
     return summary;
 }
 

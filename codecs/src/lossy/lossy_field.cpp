@@ -59,21 +59,6 @@ void check(double e) {
         throw Error(ErrorCode::InvalidArgument, "lossy max error must be finite and > 0");
 }
 
-class QuantizedPlanes final : public VolumePlanes {
-public:
-    QuantizedPlanes(VolumePlanes& inner, double e) : inner_(inner), e_(e) {}
-    const Volume& header() const override { return inner_.header(); }
-    void read(int64_t z0, int64_t count, std::byte* dst) override {
-        inner_.read(z0, count, dst);
-        const Dims d = inner_.header().dims;
-        quantize_samples(inner_.header().type, dst, std::size_t(count * d.x * d.y), e_);
-    }
-
-private:
-    VolumePlanes& inner_;
-    double e_;
-};
-
 }  // namespace
 
 void quantize_samples(ValueType type, std::byte* data, std::size_t count, double e) {
@@ -91,9 +76,9 @@ void quantize_samples(ValueType type, std::byte* data, std::size_t count, double
 
 void quantize_volume(Volume& v, double e) { quantize_samples(v.type, v.data.data(), std::size_t(v.count()), e); }
 
-std::unique_ptr<VolumePlanes> quantized_planes(VolumePlanes& inner, double e) {
-    check(e);
-    return std::make_unique<QuantizedPlanes>(inner, e);
+double stored_max_error(ValueType type, double e) {
+    if (!(e > 0)) return 0;
+    return is_float(type) ? e : std::floor(e);
 }
 
 std::array<double, 2> planes_value_range(VolumePlanes& planes) {

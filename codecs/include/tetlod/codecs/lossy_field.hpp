@@ -26,8 +26,9 @@ void quantize_samples(ValueType type, std::byte* data, std::size_t count, double
 /// quantize_samples over a whole volume, in place.
 void quantize_volume(Volume& volume, double max_error);
 
-/// `inner`'s planes, quantized as they are read (inner must outlive the result).
-std::unique_ptr<VolumePlanes> quantized_planes(VolumePlanes& inner, double max_error);
+/// The bound a lossy container of this type states for a requested E: floats
+/// E, integers floor(E) (what their quantizers honour); 0 means lossless.
+double stored_max_error(ValueType type, double max_error);
 
 /// Minimum and maximum sample of planes read one after the other (NaNs
 /// ignored; {0, 0} when there is none): resolves "P%" before a streaming

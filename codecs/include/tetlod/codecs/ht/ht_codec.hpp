@@ -43,6 +43,14 @@ struct HtEncodeOptions {
     std::function<void(std::size_t, std::size_t)> progress;
 };
 
+/// Lossy archival (format 3.1, spec §5.1): replaces, in place, every sample of
+/// an unpadded volume by a value within E of it (integers: within floor(E)),
+/// chosen as the HT coder's own prediction plus a multiple of the step
+/// (integers 2*floor(E)+1, floats 2E), visiting the points in coding order so
+/// that the encoder with this brick_log2 codes zero residuals wherever the
+/// prediction is within E. The bound holds whatever the coder does.
+void quantize_predicted(Volume& volume, int brick_log2, double max_error);
+
 /// Appends METADATA and the HT sections of `model` to `writer` and sets the HT
 /// feature. `meta` describes the original (unpadded) volume.
 void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
