@@ -162,7 +162,8 @@ int run_convert(const ConvertArgs& a) {
     std::error_code size_error;  // "-" (standard output) has no size
     const uint64_t size = std::filesystem::file_size(a.output, size_error);
     if (written.max_error > 0) summary += ", lossy: every sample within " + format_max_error(written.max_error);
-    else if (wo.max_error > 0) summary += ", lossless (--max-error below 1 on integers)";
+    else if (wo.max_error > 0)
+        summary += ", stored losslessly (smaller than any field within --max-error, or an integer bound below 1)";
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
           << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())

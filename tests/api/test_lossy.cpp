@@ -93,12 +93,15 @@ TEST(Lossy, EveryTypeRoundTripsWithinE) {
                 EXPECT_EQ(beyond(v, d, e), 0);
                 // Integers honour, and state, floor(E): below 1 the file is lossless.
                 const double stated = is_float(type) ? e : std::floor(e);
+                // The writer keeps the lossless file when it is the smallest (noisy fields).
                 const ContainerInfo info = inspect_container(path).take();
-                EXPECT_EQ(info.max_error, stated);
-                EXPECT_EQ(beyond(v, d, stated), 0);
+                EXPECT_TRUE(info.max_error == stated || info.max_error == 0) << info.max_error;
+                EXPECT_EQ(beyond(v, d, info.max_error), 0);  // 0: bit-exact values
                 EXPECT_EQ(info.header.version_major, 3);
-                EXPECT_EQ(info.header.version_minor, stated > 0 ? 1 : 0);
-                EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, stated > 0);
+                EXPECT_EQ(info.header.version_minor, info.max_error > 0 ? 1 : 0);
+                EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, info.max_error > 0);
+                if (field == test::Field::Smooth && stated >= double(range_of(v)) / 100)
+                    EXPECT_GT(info.max_error, 0);  // a smooth field at 1%: the lossy file wins
                 // The planes overload reads the volume whole for a lossy field: same bytes.
                 const std::string streamed = tmp("rt_stream.tlod");
                 auto planes = planes_of(v);
@@ -195,6 +198,7 @@ TEST(Lossy, ExtractHonoursTheBoundAgainstTheOriginal) {
         const double E = r * 0.02;
         const std::string path = tmp("extract.tlod");
         write_container(Volume(v), path, lossy(E));
+        ASSERT_GT(inspect_container(path).take().max_error, 0);  // the case under test
         const Volume stored = decode_container(path).take();
         const double tol = is_float(type) ? 1e-9 * r : 1e-9;  // long double interpolation slack
         for (double e : {0.0, E / 2, E, 3 * E, 0.1 * r, 0.3 * r})
@@ -250,7 +254,8 @@ std::string rewritten(const std::string& path, const std::string& name,
 TEST(Lossy, HostileMaxErrorRefused) {
     const Volume v = test::make_volume({9, 7, 5}, ValueType::U8, test::Field::Smooth);
     const std::string path = tmp("hostile_src.tlod");
-    write_container(Volume(v), path, lossy(2));
+    write_container(Volume(v), path, lossy(20));
+    ASSERT_GT(inspect_container(path).take().max_error, 0);
     const uint64_t lossy_features = tlod::kFeatureHt | tlod::kFeatureLossy;
     int n = 0;
     for (const char* bad : {"-1", "nan", "inf", "-inf", "0", "-0", "1e999", "abc", "", "2 ", "0x10"}) {
