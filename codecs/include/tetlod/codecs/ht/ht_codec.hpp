@@ -36,7 +36,7 @@ struct HtEncodeOptions {
     int chunk_zstd_level = 19;
     /// Format 3.1 lossy archival (spec §5.1): > 0 marks the file LOSSY with
     /// field.max_error = E. The field given to the encoder must already be
-    /// within E of the original (quantize_volume, quantized_planes); the errors
+    /// within E of the original (quantize_predicted, quantize_volume); the errors
     /// coded are those of that field, readers add E.
     double max_error = 0;
     /// Called with (chunks done, chunks total) from the calling thread.
