@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -28,6 +29,7 @@ struct ConvertArgs {
     int error_bits = 4;
     double max_shape_ratio = kDefaultMtMaxShapeRatio;
     std::string model = "ht";
+    std::string max_error;  // empty: lossless
     std::string memory;  // empty: default_memory_budget()
     bool in_memory = false;
 };
@@ -51,6 +53,17 @@ int run_convert(const ConvertArgs& a) {
                             std::to_string(&kv - a.meta.data() + 1) + " is not valid UTF-8 (byte " +
                             std::to_string(bad) + " of the argument); give UTF-8 text");
     }
+    // --max-error is parsed like --error; a percentage waits for the value range.
+    std::optional<ErrorThreshold> max_error;
+    if (!a.max_error.empty()) {
+        max_error = ErrorThreshold::parse(a.max_error, "--max-error");
+        if (!(max_error->value >= 0) || !std::isfinite(max_error->value))
+            throw Error(ErrorCode::InvalidArgument,
+                        "--max-error '" + a.max_error + "': expected a finite bound >= 0 (0: lossless)");
+        if (max_error->value > 0 && with_mt)
+            throw Error(ErrorCode::InvalidArgument,
+                        "--max-error applies to the HT alone (--model ht): a lossy container holds no MT");
+    }
     const std::size_t memory = a.memory.empty() ? default_memory_budget() : parse_byte_size(a.memory, "--memory");
     auto add_meta = [&](std::map<std::string, std::string>& md) {
         for (const std::string& kv : a.meta) {
@@ -62,7 +75,9 @@ int run_convert(const ConvertArgs& a) {
     // format that reads planes (raw, NRRD, MetaImage, HDF5, OpenVDB); the
     // rest (formats added without open_planes) reads the volume whole.
     std::unique_ptr<VolumePlanes> planes;
-    if (with_ht && !with_mt && !a.in_memory) planes = open_volume_planes(a.input, a.volume.options());
+    // A lossy field is chosen over the whole volume in the coder's order: read whole.
+    const bool lossy = max_error && max_error->value > 0;
+    if (with_ht && !with_mt && !a.in_memory && !lossy) planes = open_volume_planes(a.input, a.volume.options());
     std::optional<Volume> whole;
     if (planes) {
         Volume h = planes->header();
@@ -73,7 +88,8 @@ int run_convert(const ConvertArgs& a) {
         if (!a.memory.empty() && !a.in_memory)
             detail("note: " + a.input + " is read whole (" +
                    std::string(with_mt ? "the MT is built in memory"
-                                       : "its format is not read plane by plane") +
+                               : lossy   ? "--max-error chooses the field over the whole volume"
+                                         : "its format is not read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);
@@ -95,6 +111,16 @@ int run_convert(const ConvertArgs& a) {
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
+    if (max_error && max_error->value > 0) {
+        // Percent of the original's range: one more read when streaming.
+        const std::array<double, 2> range =
+            !max_error->percent ? std::array<double, 2>{0, 0}
+            : planes            ? planes_value_range(*planes)
+                                : planes_value_range(*planes_of(*whole));
+        wo.max_error = max_error->resolve(range);
+        detail("--max-error " + a.max_error + " = " + format_max_error(wo.max_error) +
+               " in field units (integers honour its integer part); the volume is read whole");
+    }
     wo.source_path = a.input;
     wo.converter = "tetlod convert";
     wo.progress = [&](const std::string& stage, std::size_t done, std::size_t total) {
@@ -135,6 +161,9 @@ int run_convert(const ConvertArgs& a) {
 
     std::error_code size_error;  // "-" (standard output) has no size
     const uint64_t size = std::filesystem::file_size(a.output, size_error);
+    if (written.max_error > 0) summary += ", lossy: every sample within " + format_max_error(written.max_error);
+    else if (wo.max_error > 0)
+        summary += ", stored losslessly (smaller than any field within --max-error, or an integer bound below 1)";
     out() << "wrote " << a.output << ": " << format_bytes(size) << ", "
           << format_number(double(size) / n) << " bytes per grid point (raw "
           << format_number(double(value_bytes)) << ")" << summary << ", " << format_seconds(sw.seconds())
@@ -164,6 +193,11 @@ const CommandRegistration registration{Command{
         sub.add_flag("--in-memory", a->in_memory,
                      "Read the whole volume first and build the HT in memory (faster when it fits)")
             ->group(g);
+        sub.add_option("--max-error", a->max_error,
+                       "Lossy archival: store a field whose every sample is within E of the original "
+                       "(absolute, or P% of the value range); error bounds, so extract --error, stay "
+                       "stated against the original. 0: lossless (default). HT only")
+            ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--level", a->level, "zstd level of every section")
             ->capture_default_str()
@@ -188,6 +222,7 @@ const CommandRegistration registration{Command{
         sub.footer("Examples:\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod --model ht,mt\n"
+                   "  tetlod convert neghip_64x64x64_uint8.raw neghip_lossy.tlod --max-error 0.5%\n"
                    "  tetlod convert ct.raw ct.tlod --dims 512,512,300 --dtype i16 --meta patient=anon");
         return [a] { return run_convert(*a); };
     }}};

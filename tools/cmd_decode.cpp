@@ -65,6 +65,20 @@ void warn_metadata_lost(const Volume& v, const std::string& output, const std::s
               << "; written without " << (lost.size() == 1 ? "it" : "them") << "\n";
 }
 
+/// A lossy container (format 3.1) decodes to its stored field, not the
+/// original: said on stderr (unless -q), with the bound it honours.
+void note_if_lossy(const std::string& input, bool lod) {
+    if (verbosity() < 0) return;
+    auto info = inspect_container(input);
+    if (!info || !(info->max_error > 0)) return;
+    const std::string e = format_max_error(info->max_error);
+    std::cerr << "tetlod: lossy container: every sample within " << e << " of the original"
+              << (lod ? " (the deviation below is measured against the stored field; against the original "
+                        "add at most " + e + ")"
+                      : "")
+              << "\n";
+}
+
 int run_decode(const DecodeArgs& a) {
     const bool lod = a.lod.full || !a.lod.error.empty() || a.lod.has_region() ||
                      !a.lod.error_out.empty();
@@ -86,6 +100,7 @@ int run_decode(const DecodeArgs& a) {
 
     if (!lod) {  // the original volume, bit-exact
         if (container) {
+            note_if_lossy(a.input, false);
             // Plane by plane: a container decodes a row of bricks at a time and
             // every built-in output format takes it plane by plane.
             ProgressBar bar("decoding", "planes");
@@ -113,6 +128,7 @@ int run_decode(const DecodeArgs& a) {
     std::optional<LodModel> model;
     Volume original;
     if (container) {  // the field decoded once, for both
+        note_if_lossy(a.input, true);
         StoredModel stored = open_stored_model(a.input, kind).take();
         model = std::move(stored.model);
         original = std::move(stored.volume);
@@ -187,7 +203,9 @@ const CommandRegistration registration{Command{
             ->check(CLI::IsMember({"ht", "mt"}));
         sub.footer(
             "Without --error/--full the original volume is written bit-exact: same value type,\n"
-            "spacing, origin, field name, units and user metadata (convert --meta k=v).\n"
+            "spacing, origin, field name, units and user metadata (convert --meta k=v). A lossy\n"
+            "container (convert --max-error E) gives its stored field, every sample within E of\n"
+            "the original, and says so on stderr.\n"
             "\n"
             "With --error E the output is the volume the LOD mesh at error E represents: every\n"
             "grid point is linearly interpolated in the tet containing it, from exact integer\n"

@@ -44,6 +44,9 @@ int run_info(const InfoArgs& a) {
         j["spacing"] = md.spacing;
         j["origin"] = md.origin;
         j["value_range"] = md.value_range;
+        // Format 3.1: whether the stored field is the original, and how close it is.
+        j["field_mode"] = info.max_error > 0 ? "lossy" : "lossless";
+        j["max_error"] = info.max_error;
         j["format_keys"] = md.format_keys;
         j["user_keys"] = md.user_keys;
         j["bytes_per_grid_point"] = double(h.file_size) / n;
@@ -119,6 +122,11 @@ int run_info(const InfoArgs& a) {
     o << "  volume    " << format_dims(md.dims) << " " << value_type_name(md.type) << ", field '"
       << md.field_name() << "'" << (md.units().empty() ? "" : " [" + md.units() + "]") << ", values "
       << format_number(md.value_range[0]) << ".." << format_number(md.value_range[1]) << "\n";
+    if (info.max_error > 0)
+        o << "  field     lossy: every sample within " << format_max_error(info.max_error)
+          << " of the original; error bounds include it\n";
+    else
+        o << "  field     lossless\n";
     o << "  geometry  spacing " << format_number(md.spacing[0]) << "," << format_number(md.spacing[1])
       << "," << format_number(md.spacing[2]) << "  origin " << format_number(md.origin[0]) << ","
       << format_number(md.origin[1]) << "," << format_number(md.origin[2]) << "\n";
@@ -129,7 +137,10 @@ int run_info(const InfoArgs& a) {
           << (d.padded ? " (padded)" : "") << ", bricks 2^(t+" << lay->brick_log2 + 1 << ")\n";
         o << "  errors    per diamond, rounded up to " << lay->error_mantissa_bits
           << " mantissa bits; max finite " << key(tlod::kKeyHtErrorMax) << ", always split "
-          << key(tlod::kKeyHtAlwaysSplit) << "\n";
+          << key(tlod::kKeyHtAlwaysSplit)
+          << (info.max_error > 0 ? " (of the stored field; + " + format_max_error(info.max_error) + " against the original)"
+                                 : std::string())
+          << "\n";
     }
     if (mlay)
         o << "  model     MT, " << mlay->updates << " vertex splits on " << mlay->base_tets

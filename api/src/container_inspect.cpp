@@ -97,6 +97,7 @@ Expected<ContainerInfo> inspect_container(const std::string& path) {
         info.ht = ht_info(*l, info.sections);
         info.metadata = l->metadata;
         info.ht_residual_coding = l->residual_coding;
+        info.max_error = l->max_error;
     }
     if (container_has_mt(*r)) {
         auto l = read_mt_layout(*r);

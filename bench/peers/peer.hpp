@@ -57,5 +57,8 @@ struct TlodResult : PeerResult {
     uint64_t field_bytes = 0, error_bytes = 0, other_bytes = 0;  // other: metadata, headers, table
 };
 TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seconds);
+/// The lossy .tlod (format 3.1, write_container with max_error): bytes, and
+/// max_error the largest |decoded - original| (checked against the bound by the caller).
+TlodResult run_tlod_lossy(const Volume& v, double max_error, const std::string& tmp_dir, double min_seconds);
 
 }  // namespace tetlod::bench

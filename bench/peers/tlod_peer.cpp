@@ -1,5 +1,7 @@
 // The .tlod container as a user makes and reads it: write_container to a file,
 // decode_container back (both public API calls, file I/O included).
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "peer.hpp"
@@ -7,11 +9,24 @@
 
 namespace tetlod::bench {
 
-TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seconds) {
+namespace {
+
+double largest_deviation(const Volume& a, const Volume& b) {
+    double worst = 0;
+    dispatch_value_type(a.type, [&](auto tag) {
+        using T = decltype(tag);
+        for (int64_t i = 0; i < a.count(); ++i)
+            worst = std::max(worst, std::fabs(double(a.as<T>()[i]) - double(b.as<T>()[i])));
+    });
+    return worst;
+}
+
+TlodResult run(const Volume& v, const std::string& tmp_dir, double min_seconds, double max_error) {
     TlodResult r;
     r.available = true;
     const std::string path = (std::filesystem::path(tmp_dir) / "bench_peer.tlod").string();
     ContainerWriteOptions o;
+    o.max_error = max_error;
     o.created = 0;  // no clock read: the same bytes every run
     const double enc = seconds_per_call(
         [&] {
@@ -28,10 +43,21 @@ TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seco
     Volume back;
     const double dec = seconds_per_call([&] { back = decode_container(path).take(); }, min_seconds);
     r.exact = back.type == v.type && back.data == v.data;
+    if (back.type == v.type && back.dims == v.dims) r.max_error = largest_deviation(v, back);
     r.encode_mbs = double(v.data.size()) / enc / 1e6;
     r.decode_mbs = double(v.data.size()) / dec / 1e6;
     std::filesystem::remove(path);
     return r;
+}
+
+}  // namespace
+
+TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seconds) {
+    return run(v, tmp_dir, min_seconds, 0);
+}
+
+TlodResult run_tlod_lossy(const Volume& v, double max_error, const std::string& tmp_dir, double min_seconds) {
+    return run(v, tmp_dir, min_seconds, max_error);
 }
 
 }  // namespace tetlod::bench

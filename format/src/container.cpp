@@ -149,6 +149,11 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
                         std::snprintf(b, sizeof b, "%llx", static_cast<unsigned long long>(unknown));
                         return std::string(b);
                     }() + "); a newer reader is needed");
+    // Spec §4.1: the lossy field of 3.1 belongs to an HT alone (its MT would
+    // state errors against the stored field, not the original).
+    if ((h.required_features & kFeatureLossy) &&
+        (!(h.required_features & kFeatureHt) || ((h.required_features | h.optional_features) & kFeatureMt)))
+        return fail(ErrorCode::CorruptData, where + "the LOSSY feature needs an HT and no MT");
     if (size < h.file_size)
         return fail(ErrorCode::Truncated, where + "truncated: " + std::to_string(size) +
                                               " bytes, the header declares " +

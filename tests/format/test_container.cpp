@@ -254,9 +254,17 @@ TEST(Robustness, HostileHeaders) {
     }
     {  // unknown required feature
         auto g = f;
-        store_le(g.data() + 16, 0x5, 8);  // bit 2: not defined
+        store_le(g.data() + 16, 0x9, 8);  // bit 3: not defined (bit 2 is LOSSY since 3.1)
         reseal_header(g);
         EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedFeature);
+    }
+    {  // LOSSY (3.1) without its field.max_error key: the HT is refused, never read as lossless
+        auto g = f;
+        store_le(g.data() + 16, 0x5, 8);
+        reseal_header(g);
+        auto r = ContainerReader::from_memory(g);
+        ASSERT_TRUE(r.ok());
+        EXPECT_EQ(decode_volume(*r).failure().code, ErrorCode::CorruptData);
     }
     {  // unknown optional feature: accepted
         auto g = f;

@@ -68,6 +68,14 @@ struct ContainerWriteOptions {
     /// (codecs/ht/ht_distributed.hpp), so the encoder reads the planes once
     /// and sweeps nothing. Null: computed here. Not owned.
     HtErrorSource* ht_errors = nullptr;
+    /// Error-bounded lossy archival (format 3.1, spec §5.1), in field units:
+    /// > 0 stores a field whose every sample is within max_error of the
+    /// original (quantized, then coded losslessly) and error bounds stated
+    /// against the original (readers add max_error). HT only (with the MT:
+    /// InvalidArgument). 0: lossless, the same bytes as without it. Integer
+    /// volumes honour (and state) floor(max_error); below 1 they stay lossless.
+    /// The volume is read whole (the lossy field is chosen in the coder's order).
+    double max_error = 0;
 };
 
 struct ContainerWriteSummary {
@@ -75,6 +83,8 @@ struct ContainerWriteSummary {
     int ht_k = -1, ht_max_level = -1;     // HT: L = 2^k, levels 0..max_level (-1: no HT)
     uint64_t mt_updates = 0, mt_base_tets = 0;
     double seconds = 0;
+    /// The bound stated in a lossy container (stored_max_error of the option; 0: lossless).
+    double max_error = 0;
 };
 
 /// A quarter of the machine's physical memory (at least 256 MiB): what
@@ -178,6 +188,9 @@ struct ContainerInfo {
     std::vector<tlod::SectionInfo> sections;
     std::vector<SectionCoderInfo> coders;  // section_coders(sections, ...)
     int ht_residual_coding = 0;            // HT_HEADER's, 0 without an HT
+    /// Format 3.1 lossy container: every stored sample within max_error of the
+    /// original, error bounds stated against the original; 0: lossless.
+    double max_error = 0;
     uint64_t bytes_read = 0;  // bytes the inspection read from the file
     /// A format key of the metadata, empty when absent.
     std::string format_key(const std::string& key) const;

@@ -35,9 +35,11 @@
 
 // Containers: write, inspect, extract, decode.
 #include "tetlod/container.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 
 // Measurements.
 #include "tetlod/analysis/container_verify.hpp"
+#include "tetlod/analysis/lossy_check.hpp"
 #include "tetlod/analysis/lod_deviation.hpp"
 #include "tetlod/analysis/mesh_resample.hpp"
 #include "tetlod/analysis/model_stats.hpp"

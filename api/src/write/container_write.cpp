@@ -8,10 +8,12 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <cmath>
 #include <optional>
 
 #include "tetlod/analysis/stopwatch.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/container.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
@@ -72,6 +74,74 @@ void check_options(const ContainerWriteOptions& o) {
     check_range("zstd level", o.zstd_level, 1, 22);
     check_range("brick_log2", o.brick_log2, 1, 16);
     check_range("error bits", o.error_bits, 0, 7);
+    if (!(o.max_error >= 0) || !std::isfinite(o.max_error))
+        throw Error(ErrorCode::InvalidArgument, "max error " + std::to_string(o.max_error) + ": expected a finite value >= 0");
+    if (o.max_error > 0 && o.mt)
+        throw Error(ErrorCode::InvalidArgument,
+                    "a lossy container (max error > 0) holds the HT only: the MT's errors would not "
+                    "include the field's loss; convert the MT losslessly");
+    if (o.max_error > 0 && o.ht_errors)
+        throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
+}
+
+HtEncodeOptions encode_options(const ContainerWriteOptions& o) {
+    HtEncodeOptions eo;
+    eo.zstd_level = o.zstd_level;
+    eo.brick_log2 = o.brick_log2;
+    eo.error_mantissa_bits = o.error_bits;
+    if (o.progress)
+        eo.progress = [&o](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
+    return eo;
+}
+
+/// Lossy archival (format 3.1, HT only): two fields within E of the volume,
+/// each encoded, the smaller file kept. One follows the coder's predictions
+/// (quantize_predicted: zero residuals in smooth regions, the better one on
+/// 8-bit data); the other puts every sample on one lattice (quantize_volume:
+/// a piecewise constant field, many zero errors, the better one on floats and
+/// wide integers). The padded cube is coded too: there only the second. The
+/// lossless file competes as well (its field is within any E and its bounds
+/// are exact): on fields the quantizers cannot simplify it is the smallest.
+ContainerWriteSummary write_lossy_container(Volume volume, const std::string& path, const ContainerWriteOptions& o,
+                                           double max_error, const Stopwatch& clock) {
+    const tlod::Metadata provenance = with_provenance(tlod::metadata_for_volume(volume), o);
+    std::vector<Volume> fields;
+    fields.push_back(volume);  // the lossless candidate
+    if (!o.pad) {
+        fields.push_back(volume);
+        quantize_predicted(fields.back(), o.brick_log2, max_error);
+    }
+    quantize_volume(volume, max_error);
+    fields.push_back(std::move(volume));
+    HtEncodeOptions eo = encode_options(o);
+    eo.max_error = max_error;
+    HtBuildOptions bo;
+    bo.pad = o.pad;
+    std::optional<tlod::ContainerWriter> best;
+    ContainerWriteSummary summary;
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+        Volume& f = fields[i];
+        eo.max_error = i == 0 ? 0.0 : max_error;
+        if (o.progress) o.progress("build HT", 0, 0);
+        tlod::Metadata meta = provenance;
+        meta.value_range = tlod::metadata_for_volume(f).value_range;
+        const HtModel model = HtModel::build(std::move(f), bo);
+        tlod::ContainerWriter w;
+        encode_ht(model, meta, w, eo);
+        summary.ht_k = model.domain().k;
+        summary.ht_max_level = model.domain().max_level();
+        // Ties go to the earlier: lossless, then the predicted field.
+        if (!best || w.file_size() < best->file_size()) {
+            best = std::move(w);
+            summary.max_error = eo.max_error;
+        }
+    }
+    if (o.progress) o.progress("encoded HT", 0, 0);
+    best->write(path);
+    std::error_code size_error;  // "-" (standard output) has no size
+    summary.bytes = std::filesystem::file_size(path, size_error);
+    summary.seconds = clock.seconds();
+    return summary;
 }
 
 }  // namespace
@@ -98,8 +168,9 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
-    if (o.mt) {
-        // The MT is built from the whole volume: read it, then the usual path.
+    if (o.mt || o.max_error > 0) {
+        // The MT is built from the whole volume, and the lossy field is chosen
+        // in the coder's order over the whole volume: read it, then the usual path.
         return write_container(read_all_planes(source), path, o);
     }
     Stopwatch clock;
@@ -128,6 +199,10 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
 ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
     check_options(o);
     Stopwatch clock;
+    // Lossy (before the range is recorded): integers can only honour floor(E),
+    // so that is the bound stated (0: the lossless file, exact bounds).
+    const double max_error = stored_max_error(volume.type, o.max_error);
+    if (max_error > 0) return write_lossy_container(std::move(volume), path, o, max_error, clock);
     auto progress = [&](const char* stage, std::size_t done, std::size_t total) {
         if (o.progress) o.progress(stage, done, total);
     };

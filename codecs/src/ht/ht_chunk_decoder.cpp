@@ -4,6 +4,7 @@
 
 #include "ht_chunk_modes.hpp"
 #include "ht_residual_v1.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 
 namespace tetlod::ht_detail {
 
@@ -44,9 +45,33 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want) {
     }
 }
 
+namespace {
+
+Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
+                                     const Geometry& G, ValueType type, void* field, float* errors,
+                                     std::vector<std::byte>& field_stored, std::vector<std::byte>& error_stored);
+
+}  // namespace
+
+/// Spec §5.1 (lossy files): the bound of every diamond of the chunk is its
+/// stored bound plus E, so queries honour their bound against the original.
 Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
                               ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
                               std::vector<std::byte>& error_stored) {
+    Failure f = decode_chunk_sections_stored(r, L, c, G, type, field, errors, field_stored, error_stored);
+    if (f.code != ErrorCode::Ok || !errors || L.max_error <= 0 || c.diamonds == 0) return f;
+    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
+        float& e = errors[G.index(x, y, z)];
+        e = bound_against_original(e, L.max_error);
+    });
+    return f;
+}
+
+namespace {
+
+Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
+                                     const Geometry& G, ValueType type, void* field, float* errors,
+                                     std::vector<std::byte>& field_stored, std::vector<std::byte>& error_stored) {
     const int m = L.error_mantissa_bits;
     auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si) -> Expected<std::vector<std::byte>> {
         if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
@@ -96,6 +121,8 @@ Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L,
         return fail(ErrorCode::CorruptData, where(c.error_section) + "error code out of range or malformed stream");
     return Failure{ErrorCode::Ok, {}};
 }
+
+}  // namespace
 
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.

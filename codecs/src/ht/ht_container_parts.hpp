@@ -11,6 +11,7 @@
 #include "ht_chunk_geometry.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 
 namespace tetlod::ht_detail {
 
@@ -71,10 +72,19 @@ private:
 /// The sections an HT container starts with (METADATA with the error
 /// summary, HT_HEADER), added to `w` with its features: shared by the
 /// streaming encoder and the distributed layout so both write the same head.
+/// The features and the field.max_error key of a container written with `o`
+/// (spec §5.1: LOSSY and the key together).
+inline uint64_t ht_features(tlod::Metadata& md, const HtEncodeOptions& o) {
+    if (!(o.max_error > 0)) return tlod::kFeatureHt;
+    if (!std::isfinite(o.max_error)) throw Error(ErrorCode::InvalidArgument, "lossy max error must be finite");
+    md.format_keys[tlod::kKeyFieldMaxError] = format_max_error(o.max_error);
+    return tlod::kFeatureHt | tlod::kFeatureLossy;
+}
+
 inline void add_ht_leading_sections(tlod::ContainerWriter& w, const HtDomain& d, tlod::Metadata md,
                                     const ErrorSummary& errors, const HtEncodeOptions& o) {
     errors.write_to(md);
-    w.set_features(tlod::kFeatureHt);
+    w.set_features(ht_features(md, o));
     w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md), o.zstd_level);
     const auto hh = ht_header_bytes(d, o.brick_log2, o.error_mantissa_bits);
     w.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());

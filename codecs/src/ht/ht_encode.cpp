@@ -30,7 +30,7 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
         for (float v : model.diamond_errors()) summary.add(v);
         summary.write_to(md);
     }
-    writer.set_features(tlod::kFeatureHt);
+    writer.set_features(ht_features(md, o));
     writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
                o.zstd_level);
     const auto hh = ht_header_bytes(d, o.brick_log2, m);

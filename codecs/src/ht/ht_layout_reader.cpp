@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "ht_chunk_modes.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 
 namespace tetlod {
 
@@ -81,6 +82,21 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
         !(predictor == kPredictorNeighbours && (coding == kResidualRangeCoder || coding == kResidualChunkModes)))
         return fail(ErrorCode::UnsupportedFeature, where + "HT_HEADER: unknown predictor or residual coding");
     L.residual_coding = coding;
+    // Spec §5.1: the LOSSY feature and field.max_error come together; E must
+    // be finite and > 0 (a hostile value must not weaken every bound).
+    {
+        const bool lossy = (r.header().required_features & tlod::kFeatureLossy) != 0;
+        const auto key = L.metadata.format_keys.find(tlod::kKeyFieldMaxError);
+        const bool has_key = key != L.metadata.format_keys.end();
+        if (lossy != has_key)
+            return fail(ErrorCode::CorruptData, where + (lossy ? "the LOSSY feature is set without the field.max_error key"
+                                                               : "field.max_error given without the LOSSY feature"));
+        if (lossy) {
+            auto e = parse_max_error(key->second);
+            if (!e) return with_context(where, e.failure());
+            L.max_error = *e;
+        }
+    }
     if (L.brick_log2 < 1 || L.brick_log2 > 16 || L.error_mantissa_bits > 7)
         return fail(ErrorCode::CorruptData, where + "HT_HEADER: brick size or error precision out of range");
     const Dims& dims = L.metadata.dims;

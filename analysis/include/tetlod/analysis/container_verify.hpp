@@ -35,6 +35,10 @@ struct VerifyReport {
     bool ht_deep_ok = false;         // deep: every stored bound >= exact error
     uint64_t ht_bounds_checked = 0;
     double ht_worst_bound_ratio = 1;  // largest stored / exact over nonzero errors
+    /// Format 3.1 lossy container: the stated bound E (0: lossless). Checked
+    /// (finite, > 0, with the LOSSY feature) when the HT is read; with --deep,
+    /// every finite decoded bound is >= E as well.
+    double max_error = 0;
 
     std::optional<Failure> failure;
     bool ok() const { return !failure.has_value(); }

@@ -29,8 +29,11 @@ inline constexpr uint16_t kVersion2_1_Minor = 1;
 /// range, constant, samples, zero-residual). Older readers must refuse it.
 inline constexpr uint16_t kVersion3_0_Major = 3;
 inline constexpr uint16_t kVersion3_0_Minor = 0;
+/// 3.1: error-bounded lossy HT field (required feature bit 2, METADATA key
+/// field.max_error). Written only by files that use it: lossless files stay 3.0.
+inline constexpr uint16_t kVersion3_1_Minor = 1;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
-inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;
+inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).
 inline constexpr uint16_t kOldestReadableMajor = kVersion1_0_Major;
 /// "tlod-format 2.0": for --version output.
@@ -46,7 +49,12 @@ inline constexpr uint64_t kFeatureHt = uint64_t{1} << 0;
 /// The file holds an edge-collapse Multi-Tessellation (MT_HEADER + MT_STRUCTURE).
 /// Required when the file holds no HT; optional (skippable) next to an HT.
 inline constexpr uint64_t kFeatureMt = uint64_t{1} << 1;
-inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt;
+/// Required (3.1): the HT field is lossy, every sample within the METADATA key
+/// field.max_error of the original, and every error bound is stated against
+/// the original (stored code + that bound). Required so that a 3.0 reader
+/// refuses the file instead of calling the stored field the original.
+inline constexpr uint64_t kFeatureLossy = uint64_t{1} << 2;
+inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt | kFeatureLossy;
 
 // ---- section types ----
 enum SectionType : uint32_t {
@@ -160,6 +168,8 @@ public:
     void set_features(uint64_t required, uint64_t optional = 0) {
         header_.required_features = required;
         header_.optional_features = optional;
+        // A file using a 3.1 feature says so; the others stay 3.0, byte for byte.
+        header_.version_minor = (required & kFeatureLossy) ? kVersion3_1_Minor : kVersionMinor;
     }
     /// Appends a section whose stored bytes are already final (e.g. compressed
     /// in parallel by the caller with zstd_compress); flags must say how.

@@ -25,6 +25,9 @@ inline constexpr const char* kKeyToolVersion = "tool.version";
 inline constexpr const char* kKeyCreated = "created";
 inline constexpr const char* kKeyHtErrorMax = "ht.error.max";
 inline constexpr const char* kKeyHtAlwaysSplit = "ht.error.always_split";
+/// 3.1, with the LOSSY feature only: E, every stored sample within E of the
+/// original (decimal, shortest text that reads back as the same double).
+inline constexpr const char* kKeyFieldMaxError = "field.max_error";
 
 struct Metadata {
     Dims dims;                  // of the original volume

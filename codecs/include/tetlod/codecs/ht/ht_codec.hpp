@@ -34,9 +34,22 @@ struct HtEncodeOptions {
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
+    /// Format 3.1 lossy archival (spec §5.1): > 0 marks the file LOSSY with
+    /// field.max_error = E. The field given to the encoder must already be
+    /// within E of the original (quantize_predicted, quantize_volume); the errors
+    /// coded are those of that field, readers add E.
+    double max_error = 0;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
 };
+
+/// Lossy archival (format 3.1, spec §5.1): replaces, in place, every sample of
+/// an unpadded volume by a value within E of it (integers: within floor(E)),
+/// chosen as the HT coder's own prediction plus a multiple of the step
+/// (integers 2*floor(E)+1, floats 2E), visiting the points in coding order so
+/// that the encoder with this brick_log2 codes zero residuals wherever the
+/// prediction is within E. The bound holds whatever the coder does.
+void quantize_predicted(Volume& volume, int brick_log2, double max_error);
 
 /// Appends METADATA and the HT sections of `model` to `writer` and sets the HT
 /// feature. `meta` describes the original (unpadded) volume.
@@ -133,6 +146,10 @@ struct HtLayout {
     /// 2 = class-ordered range coding (format 2.x), 3 = a mode per chunk
     /// section, one of them range coding 2 (format 3.x).
     int residual_coding = 2;
+    /// Format 3.1, LOSSY feature: every stored sample is within this E of the
+    /// original and the decoded error bounds include it (stored code + E);
+    /// 0: the field is the original (lossless).
+    double max_error = 0;
     std::vector<HtChunk> chunks;  // file order: cycle k first, then k-1, ..., 0
 };
 Expected<HtLayout> read_ht_layout(tlod::ContainerReader& reader);

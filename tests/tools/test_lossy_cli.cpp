@@ -1,0 +1,120 @@
+// `convert --max-error` through the command line (format 3.1 lossy archival):
+// percent parsing, info (text and --json) showing the mode and bound, decode
+// saying what it honours, verify --deep --original, and the refusals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "cli_runner.hpp"
+
+using namespace tetlod_cli_test;
+
+namespace {
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// A small u8 volume (values 0..255 in the Marschner-Lobb signal) and its lossy container.
+std::string sample_raw() {
+    const std::string raw = tmp("lossy_ml.raw");
+    EXPECT_EQ(run("sample marschner-lobb '" + raw + "' --size 17").code, 0);
+    return raw;
+}
+
+std::string converted(const std::string& raw, const std::string& name, const std::string& extra) {
+    const std::string out = tmp(name + ".tlod");
+    const CliRun c = run("convert '" + raw + "' '" + out + "' --dims 17,17,17 --dtype u8 " + extra);
+    EXPECT_EQ(c.code, 0) << c.err;
+    return out;
+}
+
+std::string bytes(const std::string& path) { return slurp(path); }
+
+}  // namespace
+
+TEST(LossyCli, PercentOfTheRangeShownByInfo) {
+    const std::string raw = sample_raw();
+    const std::string path = converted(raw, "lossy_pct", "--max-error 2%");
+    const CliRun j = run("info --json '" + path + "'");
+    ASSERT_EQ(j.code, 0) << j.err;
+    const auto info = nlohmann::json::parse(j.out);
+    EXPECT_EQ(info["field_mode"], "lossy");
+    EXPECT_EQ(info["format_version"], "3.1");
+    // 2% of the input's range, multiplied first as --error does: pct * (max - min) / 100.
+    const std::string v = bytes(raw);
+    int lo = 255, hi = 0;
+    for (char c : v) lo = std::min(lo, int((unsigned char)c)), hi = std::max(hi, int((unsigned char)c));
+    // A u8 volume honours, and states, the integer part.
+    EXPECT_EQ(info["max_error"].get<double>(), std::floor(2.0 * double(hi - lo) / 100.0));
+    EXPECT_GE(info["max_error"].get<double>(), 1.0);
+    EXPECT_EQ(info["format_keys"]["field.max_error"].get<std::string>().empty(), false);
+
+    const CliRun t = run("info '" + path + "'");
+    ASSERT_EQ(t.code, 0) << t.err;
+    EXPECT_TRUE(contains(t.out, "lossy: every sample within")) << t.out;
+
+    const CliRun plain = run("info --json '" + converted(raw, "lossless", "") + "'");
+    const auto pj = nlohmann::json::parse(plain.out);
+    EXPECT_EQ(pj["field_mode"], "lossless");
+    EXPECT_EQ(pj["max_error"].get<double>(), 0.0);
+    EXPECT_EQ(pj["format_version"], "3.0");
+}
+
+TEST(LossyCli, AbsoluteBoundDecodeAndVerify) {
+    const std::string raw = sample_raw();
+    const std::string path = converted(raw, "lossy_abs", "--max-error 3");
+    const CliRun j = run("info --json '" + path + "'");
+    EXPECT_EQ(nlohmann::json::parse(j.out)["max_error"].get<double>(), 3.0);
+
+    const std::string back = tmp("lossy_back.raw");
+    const CliRun d = run("decode '" + path + "' '" + back + "'");
+    ASSERT_EQ(d.code, 0) << d.err;
+    EXPECT_TRUE(contains(d.err, "lossy container: every sample within 3 of the original")) << d.err;
+    const std::string a = bytes(raw), b = bytes(back);
+    ASSERT_EQ(a.size(), b.size());
+    int worst = 0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        worst = std::max(worst, std::abs(int((unsigned char)a[i]) - int((unsigned char)b[i])));
+    EXPECT_LE(worst, 3);
+    EXPECT_GT(worst, 0);  // it is lossy
+    // -q: no note (warnings, e.g. metadata a raw file cannot hold, still go to stderr).
+    EXPECT_FALSE(contains(run("-q decode '" + path + "' '" + back + "'").err, "lossy container"));
+
+    const CliRun v = run("verify --deep '" + path + "' --original '" + raw + "' --dims 17,17,17 --dtype u8");
+    ASSERT_EQ(v.code, 0) << v.err;
+    EXPECT_TRUE(contains(v.out, "lossy: every sample within 3")) << v.out;
+    EXPECT_TRUE(contains(v.out, "original: all 4913 samples within 3")) << v.out;
+    // Against another volume the statement fails.
+    const std::string other = tmp("lossy_other.raw");
+    ASSERT_EQ(run("sample sparse '" + other + "' --size 17").code, 0);
+    const CliRun w = run("verify '" + path + "' --original '" + other + "' --dims 17,17,17 --dtype u8");
+    EXPECT_EQ(w.code, 4) << w.out << w.err;
+    EXPECT_TRUE(contains(w.err, "farther than 3")) << w.err;
+
+    // extract --error e honours e (here: reports a largest error no larger).
+    const CliRun x = run("extract '" + path + "' '" + tmp("lossy.vtu") + "' --error 10");
+    EXPECT_EQ(x.code, 0) << x.err;
+}
+
+TEST(LossyCli, ZeroIsLosslessAndBadBoundsRefused) {
+    const std::string raw = sample_raw();
+    const std::string a = converted(raw, "zero_a", "--max-error 0");
+    const std::string b = converted(raw, "zero_b", "");
+    // The creation time differs between runs: compare the decoded fields and the version.
+    const std::string da = tmp("zero_a.raw"), db = tmp("zero_b.raw");
+    ASSERT_EQ(run("decode '" + a + "' '" + da + "'").code, 0);
+    EXPECT_EQ(bytes(da), bytes(raw));
+    EXPECT_EQ(nlohmann::json::parse(run("info --json '" + a + "'").out)["format_version"], "3.0");
+    (void)b;
+    (void)db;
+    for (const char* bad : {"-1", "inf", "nan", "abc", "1%%"}) {
+        const CliRun r = run("convert '" + raw + "' '" + tmp("bad.tlod") + "' --dims 17,17,17 --dtype u8 --max-error " + bad);
+        EXPECT_EQ(r.code, 2) << bad << ": " << r.err;
+    }
+    const CliRun mt = run("convert '" + raw + "' '" + tmp("bad.tlod") + "' --dims 17,17,17 --dtype u8 --max-error 1 --model ht,mt");
+    EXPECT_EQ(mt.code, 2) << mt.err;
+    EXPECT_TRUE(contains(mt.err, "HT alone")) << mt.err;
+}
