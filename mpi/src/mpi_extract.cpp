@@ -24,7 +24,8 @@ struct TetRun {
 
 /// The sink of a rank other than 0: its run is kept (its share of the output)
 /// until the ranks agree that all of them emitted theirs; the vertices, which
-/// rank 0 writes, are not kept.
+/// rank 0 writes, are not kept. Batch by batch, each at its exact size: one
+/// growing vector would hold up to twice the run while it reallocates.
 class RunKeeper final : public TetMeshSink {
 public:
     void begin(const TetMesh& vertices, uint64_t tet_count) override {
@@ -33,13 +34,16 @@ public:
     }
     void add(std::span<const std::array<uint32_t, 4>> t, std::span<const uint8_t> l,
              std::span<const float> e) override {
-        run.tets.insert(run.tets.end(), t.begin(), t.end());
-        run.level.insert(run.level.end(), l.begin(), l.end());
-        run.error.insert(run.error.end(), e.begin(), e.end());
+        if (t.empty()) return;
+        TetRun& b = batches.emplace_back();
+        b.tets.assign(t.begin(), t.end());
+        b.level.assign(l.begin(), l.end());
+        b.error.assign(e.begin(), e.end());
+        tets_ += t.size();
     }
     void finish() override {}
-    TetRun run;
-    uint64_t vertices_ = 0, total_ = 0;
+    std::vector<TetRun> batches;
+    uint64_t vertices_ = 0, total_ = 0, tets_ = 0;
 };
 
 /// Rank 0's sink: the file writer gets the vertices and rank 0's run as they
@@ -64,30 +68,36 @@ private:
     TetMeshSink& to_;
 };
 
-// The pieces a run of n tets travels in (both sides cut alike).
-template <class F>
-void for_pieces(uint64_t n, std::size_t piece, F f) {
-    for (uint64_t b = 0; b < n; b += piece) f(std::size_t(b), std::size_t(std::min<uint64_t>(piece, n - b)));
-}
-
-/// Rank r > 0: its run to rank 0, as a count then pieces of tets, levels, errors.
-void send_run(MPI_Comm comm, const TetRun& run, std::size_t piece) {
-    uint64_t n = run.tets.size();
-    MPI_Send(&n, 1, MPI_UINT64_T, 0, 0, comm);
-    for_pieces(n, piece, [&](std::size_t b, std::size_t k) {
-        MPI_Send(run.tets.data() + b, int(k * 16), MPI_BYTE, 0, 1, comm);
-        MPI_Send(run.level.data() + b, int(k), MPI_BYTE, 0, 2, comm);
-        MPI_Send(run.error.data() + b, int(k * 4), MPI_BYTE, 0, 3, comm);
-    });
+/// Rank r > 0: its run to rank 0, as the number of pieces, then each piece's
+/// size, tets, levels and errors (batches cut into pieces of at most `piece`
+/// tets, so every message stays far below MPI's 2^31 count). Each batch is
+/// released once sent.
+void send_run(MPI_Comm comm, std::vector<TetRun>& batches, std::size_t piece) {
+    uint64_t pieces = 0;
+    for (const TetRun& b : batches) pieces += (b.tets.size() + piece - 1) / piece;
+    MPI_Send(&pieces, 1, MPI_UINT64_T, 0, 0, comm);
+    for (TetRun& run : batches) {
+        for (std::size_t b = 0; b < run.tets.size(); b += piece) {
+            const std::size_t k = std::min(piece, run.tets.size() - b);
+            uint64_t n = k;
+            MPI_Send(&n, 1, MPI_UINT64_T, 0, 0, comm);
+            MPI_Send(run.tets.data() + b, int(k * 16), MPI_BYTE, 0, 1, comm);
+            MPI_Send(run.level.data() + b, int(k), MPI_BYTE, 0, 2, comm);
+            MPI_Send(run.error.data() + b, int(k * 4), MPI_BYTE, 0, 3, comm);
+        }
+        run = TetRun{};
+    }
 }
 
 /// Rank 0: the run of rank `from`, piece by piece into `to` (nullptr: received
 /// and dropped, after a failure, so the sender is not left blocked).
-void receive_run(MPI_Comm comm, int from, std::size_t piece, TetMeshSink* to) {
-    uint64_t n = 0;
-    MPI_Recv(&n, 1, MPI_UINT64_T, from, 0, comm, MPI_STATUS_IGNORE);
+void receive_run(MPI_Comm comm, int from, TetMeshSink* to) {
+    uint64_t pieces = 0;
+    MPI_Recv(&pieces, 1, MPI_UINT64_T, from, 0, comm, MPI_STATUS_IGNORE);
     TetRun buf;
-    for_pieces(n, piece, [&](std::size_t, std::size_t k) {
+    for (uint64_t p = 0; p < pieces; ++p) {
+        uint64_t k = 0;
+        MPI_Recv(&k, 1, MPI_UINT64_T, from, 0, comm, MPI_STATUS_IGNORE);
         buf.tets.resize(k);
         buf.level.resize(k);
         buf.error.resize(k);
@@ -95,7 +105,7 @@ void receive_run(MPI_Comm comm, int from, std::size_t piece, TetMeshSink* to) {
         MPI_Recv(buf.level.data(), int(k), MPI_BYTE, from, 2, comm, MPI_STATUS_IGNORE);
         MPI_Recv(buf.error.data(), int(k * 4), MPI_BYTE, from, 3, comm, MPI_STATUS_IGNORE);
         if (to) to->add(buf.tets, buf.level, buf.error);
-    });
+    }
 }
 
 double cpu_seconds(double* peak_rss_mb) {
@@ -158,7 +168,7 @@ MpiExtractResult extract_mpi(MPI_Comm comm, const std::string& input, const std:
         lo.cache_bytes = o.cache_bytes;
         TetMeshSink& sink = rank == 0 ? static_cast<TetMeshSink&>(*held) : kept;
         extract_ht_lazy_to(reader, query, sink, &stats, &lazy, lo, share).take();
-        mine.tets = rank == 0 ? held->tets_ : kept.run.tets.size();
+        mine.tets = rank == 0 ? held->tets_ : kept.tets_;
         mine.chunks_decoded = lazy.chunks_decoded;
         mine.refine_seconds = stats.refine_seconds;
         mine.emit_seconds = stats.emit_seconds;
@@ -178,13 +188,12 @@ MpiExtractResult extract_mpi(MPI_Comm comm, const std::string& input, const std:
     result.failure = agree(comm, run_local(
                                      [&] {
                                          if (rank != 0) {
-                                             send_run(comm, kept.run, o.message_tets);
-                                             kept.run = TetRun{};
+                                             send_run(comm, kept.batches, o.message_tets);
                                              return;
                                          }
                                          std::optional<RankFailure> first;
                                          for (int r = 1; r < size; ++r) {
-                                             auto f = run_local([&] { receive_run(comm, r, o.message_tets, first ? nullptr : held.get()); }, 0);
+                                             auto f = run_local([&] { receive_run(comm, r, first ? nullptr : held.get()); }, 0);
                                              if (f && !first) first = f;
                                          }
                                          if (first) throw Error(first->code, first->message);

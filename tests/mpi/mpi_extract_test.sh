@@ -61,7 +61,7 @@ uniform-u8)
     same_mesh u8.tlod vtu "3" -- --error 0 --compress none
     ;;
 uniform-float)
-    make_tlod noisy 37,29,41 f32 f32
+    make_tlod noisy 29,23,19 f32 f32
     make_tlod noisy 21,17,11 i16 pad --pad
     for e in 1% -1; do same_mesh f32.tlod vtu "1 2 4" -- --error $e; done
     for e in 0 5; do same_mesh pad.tlod vtu "2 4" -- --error $e; done
@@ -70,11 +70,11 @@ uniform-float)
     ;;
 box)
     make_tlod multiscale 13,7,5 u8 u8
-    make_tlod noisy 37,29,41 f32 f32
+    make_tlod noisy 29,23,19 f32 f32
     make_tlod noisy 21,17,11 i16 pad --pad
     same_mesh u8.tlod vtu "1 2 4" -- --error 0 --box 2,1,1,6,4,3 --error-out 10%
-    same_mesh f32.tlod vtu "1 2 4" -- --error 0 --box 5,5,5,20,15,30
-    same_mesh f32.tlod vtu "1 2 4" -- --error -1 --box 30,0,0,36,28,40 --error-out 5%
+    same_mesh f32.tlod vtu "1 2 4" -- --error 0 --box 5,5,5,20,15,12
+    same_mesh f32.tlod vtu "1 2 4" -- --error -1 --box 22,0,0,28,22,18 --error-out 5%
     same_mesh pad.tlod vtu "1 2 4" -- --error 1% --box 0,0,0,4,4,4 --error-out inf
     ;;
 failures)
