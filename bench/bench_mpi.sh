@@ -9,6 +9,10 @@
 # `mpirun -n 1|2 --bind-to core tetlod-mpi decode` (a new file each run), each
 # dataset checked against the serial one (h5dump's binary dump of the values).
 #
+# Then (WHAT=extract) extraction of a uniform and a box mesh from it: `tetlod
+# extract` against `mpirun -n 1|2 --bind-to core tetlod-mpi extract`, each
+# file checked with cmp against the serial one, with each rank's peak RSS.
+#
 #   bench/bench_mpi.sh BUILD_DIR [SIZE=513] [REPEAT=2] [WORKDIR=/tmp/tetlod_bench_mpi] [WHAT=convert,decode]
 set -euo pipefail
 build=$(cd "$1" && pwd) size=${2:-513} repeat=${3:-2} work=${4:-/tmp/tetlod_bench_mpi} what=${5:-convert,decode}
@@ -29,11 +33,12 @@ run() {
     local label=$1; shift
     local load; load=$(uptime | sed 's/.*load average: //')
     local t0 t1 u; t0=$(date +%s.%N)
-    /usr/bin/time -f '%U' -o "$label.time" "$@" > /dev/null 2> "$label.err" || { cat "$label.err"; exit 1; }
+    /usr/bin/time -f '%U %M' -o "$label.time" "$@" > /dev/null 2> "$label.err" || { cat "$label.err"; exit 1; }
     t1=$(date +%s.%N)
-    u=$(tail -1 "$label.time")
+    u=$(tail -1 "$label.time" | cut -d' ' -f1) rss=$(tail -1 "$label.time" | cut -d' ' -f2)
     wall=$(echo "$t1 - $t0" | bc -l)
-    printf '%-8s wall %7.2f s  user CPU (all processes) %7.2f s  load before: %s\n' "$label" "$wall" "$u" "$load"
+    printf '%-8s wall %7.2f s  user CPU (all processes) %7.2f s  largest peak RSS %5d MB  load before: %s\n' \
+        "$label" "$wall" "$u" "$((rss / 1024))" "$load"
     echo "$wall" >> "$label.walls"
 }
 if [[ $what == *convert* ]]; then
@@ -56,8 +61,28 @@ printf 'speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod convert (containers
     "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"
 fi
 
-[[ $what == *decode* ]] || exit 0
 [ -f serial.tlod ] || "$tetlod" -q convert "$in" serial.tlod
+if [[ $what == *extract* ]]; then
+lo=$((size * 7 / 16)) hi=$((size * 9 / 16))
+for q in "uniform --error 0.5%" "box --error 0 --box $lo,$lo,$lo,$hi,$hi,$hi --error-out 5%"; do
+    set -- $q; name=$1; shift
+    rm -f "x$name.serial.walls" "x$name.n1.walls" "x$name.n2.walls"
+    echo "extract $name: $*"
+    for i in $(seq "$repeat"); do
+        run "x$name.serial" "$tetlod" -q -f extract serial.tlod "x$name.serial.vtu" "$@"
+        run "x$name.n1" mpirun -n 1 --bind-to core "$tetlod_mpi" -v -f extract serial.tlod "x$name.n1.vtu" "$@"
+        run "x$name.n2" mpirun -n 2 --bind-to core "$tetlod_mpi" -v -f extract serial.tlod "x$name.n2.vtu" "$@"
+        cmp "x$name.serial.vtu" "x$name.n1.vtu" && cmp "x$name.serial.vtu" "x$name.n2.vtu" ||
+            { echo "FAIL: meshes differ"; exit 1; }
+    done
+    echo "per rank, last -n 1 run:"; grep -A1 '^rank' "x$name.n1.err"
+    echo "per rank, last -n 2 run:"; grep -A2 '^rank' "x$name.n2.err"
+    printf 'extract %s minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s (%s bytes, files identical)\n' "$name" \
+        "$(best "x$name.serial")" "$(best "x$name.n1")" "$(best "x$name.n2")" "$(stat -c %s "x$name.serial.vtu")"
+done
+fi
+
+[[ $what == *decode* ]] || exit 0
 values() { h5dump -d /volume -b NATIVE -o "$1.bin" "$1" > /dev/null; }
 rm -f dserial.walls dn1.walls dn2.walls
 for i in $(seq "$repeat"); do

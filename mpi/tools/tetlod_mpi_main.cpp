@@ -13,7 +13,9 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -23,7 +25,9 @@
 #include "exit_code.hpp"
 #include "mpi_convert.hpp"
 #include "mpi_decode.hpp"
+#include "mpi_extract.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/converters/mesh_writer.hpp"
 #include "tetlod/core/utf8.hpp"
 
 namespace {
@@ -37,7 +41,67 @@ struct Args {
     std::vector<std::string> meta;
     int level = 19, brick_log2 = 4, error_bits = 4;
     std::string memory, axis_order;
+    // extract
+    std::string error, error_out, box, format, compress = "zlib";
+    int compress_level = 0;
+    uint64_t cache_mb = 1024;
 };
+
+// --error / --error-out as `tetlod extract` reads them: a number, N% of the
+// value range, or inf; negative means full resolution.
+struct Threshold {
+    double value = std::numeric_limits<double>::infinity();
+    bool percent = false;
+    double resolve(const std::array<double, 2>& range) const {
+        if (value < 0) return -1.0;
+        return percent ? value * (range[1] - range[0]) / 100.0 : value;
+    }
+};
+
+double parse_double(const std::string& text, const std::string& flag) {
+    std::size_t used = 0;
+    double v = 0;
+    try {
+        v = std::stod(text, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    if (used == 0 || used != text.size() || !std::isfinite(v))
+        throw Error(ErrorCode::InvalidArgument, flag + " '" + text + "': expected a number");
+    return v;
+}
+
+Threshold parse_threshold(const std::string& text, const std::string& flag) {
+    if (text == "inf" || text == "unbounded" || text == "infinity") return {};
+    Threshold t;
+    std::string number = text;
+    if (!number.empty() && number.back() == '%') {
+        t.percent = true;
+        number.pop_back();
+    }
+    t.value = parse_double(number, flag);
+    return t;
+}
+
+std::array<int64_t, 6> parse_box(const std::string& text) {
+    std::array<int64_t, 6> b{};
+    std::stringstream in(text);
+    std::string part;
+    int n = 0;
+    while (std::getline(in, part, ',')) {
+        if (n == 6) break;
+        const double v = parse_double(part, "--box");
+        if (v != std::floor(v)) throw Error(ErrorCode::InvalidArgument, "--box '" + text + "': expected integers");
+        b[std::size_t(n++)] = int64_t(v);
+    }
+    if (n != 6 || std::getline(in, part))
+        throw Error(ErrorCode::InvalidArgument, "--box '" + text + "': expected x0,y0,z0,x1,y1,z1");
+    for (int a = 0; a < 3; ++a)
+        if (b[std::size_t(a)] > b[std::size_t(a + 3)])
+            throw Error(ErrorCode::InvalidArgument,
+                        "--box '" + text + "': each lower corner must not exceed the upper one");
+    return b;
+}
 
 void check_meta(const std::vector<std::string>& meta) {
     for (const std::string& kv : meta) {
@@ -115,6 +179,47 @@ int run_decode(const Args& a, int rank, int size) {
     return 0;
 }
 
+int run_extract(const Args& a, int rank, int size) {
+    if (!a.error_out.empty() && a.box.empty())
+        throw Error(ErrorCode::InvalidArgument, "--error-out applies outside a region: give --box too");
+    mpi::MpiExtractOptions o;
+    o.force = a.force;
+    o.format = a.format;
+    o.write.compression = *parse_mesh_compression(a.compress);
+    o.write.compression_level = a.compress_level;
+    o.cache_bytes = std::size_t(a.cache_mb) << 20;
+    if (!a.box.empty()) o.query.box = parse_box(a.box);
+    const Threshold in = parse_threshold(a.error, "--error");
+    const Threshold outside = parse_threshold(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
+    o.resolve = [in, outside](LodQuery& q, const std::array<double, 2>& range) {
+        q.error_in = in.resolve(range);
+        q.error_out = outside.resolve(range);
+    };
+    const char* phase = std::getenv("TETLOD_MPI_TEST_FAIL_PHASE");
+    if (const char* f = std::getenv("TETLOD_MPI_TEST_FAIL_RANK"); f && phase && std::string(phase) == "extract")
+        o.fail_rank = std::atoi(f);
+    const double t0 = MPI_Wtime();
+    const mpi::MpiExtractResult r = mpi::extract_mpi(MPI_COMM_WORLD, a.input, a.output, o);
+    if (r.failure) return report_failure(*r.failure, rank);
+    if (rank != 0 || a.quiet) return 0;
+    const Dims d = r.dims;
+    std::cout << "wrote " << a.output << ": " << r.tets << " tets, " << r.vertices << " vertices, largest error "
+              << r.max_error << " (from " << d.x << "x" << d.y << "x" << d.z << " " << value_type_name(r.type)
+              << "), " << size << (size == 1 ? " rank" : " ranks") << ", " << MPI_Wtime() - t0 << " s\n";
+    if (a.verbose > 0) {
+        std::cerr << "rank         tets  chunks  refine s  emit s  user CPU s  peak RSS MB\n";
+        for (std::size_t i = 0; i < r.traffic.size(); ++i) {
+            const auto& t = r.traffic[i];
+            char row[200];
+            std::snprintf(row, sizeof row, "%4zu %12llu %7llu %9.3f %7.3f %11.3f %12.1f\n", i,
+                          (unsigned long long)t.tets, (unsigned long long)t.chunks_decoded, t.refine_seconds,
+                          t.emit_seconds, t.cpu_seconds, t.peak_rss_mb);
+            std::cerr << row;
+        }
+    }
+    return 0;
+}
+
 int run(const Args& a, int rank, int size) {
     check_meta(a.meta);
     mpi::MpiConvertOptions o;
@@ -168,7 +273,7 @@ int run(const Args& a, int rank, int size) {
 }
 
 int main_mpi(int argc, char** argv, int rank, int size) {
-    CLI::App app{"tetlod-mpi: distributed conversion of HDF5 volumes to .tlod containers and back (run under mpirun)"};
+    CLI::App app{"tetlod-mpi: distributed conversion of HDF5 volumes to .tlod containers and back, and mesh extraction (run under mpirun)"};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("tetlod-mpi ") + TETLOD_VERSION_STRING);
     Args a;
@@ -207,6 +312,41 @@ int main_mpi(int argc, char** argv, int rank, int size) {
                    "Examples:\n"
                    "  mpirun -n 4 tetlod-mpi decode scan.tlod scan.h5:/volume\n"
                    "  mpirun -n 2 tetlod-mpi -f decode scan.tlod scans.h5:/run2/volume   # replace that dataset");
+    CLI::App* extract = app.add_subcommand(
+        "extract", ".tlod container (HT) -> level-of-detail mesh, the file `tetlod extract` writes");
+    extract->add_option("input", a.input, "Input .tlod file (holding the HT)")->required();
+    extract->add_option("output", a.output, "Output mesh (.vtu, .vtk, .msh; written by rank 0, atomically)")->required();
+    extract->add_option("--error", a.error, "Largest error allowed (inside the box if any): E, N% of the value range, inf, or negative = full resolution")
+        ->required()
+        ->check([](const std::string& s) -> std::string {
+            try { parse_threshold(s, "--error"); } catch (const Error& e) { return e.what(); }
+            return {};
+        });
+    extract->add_option("--error-out", a.error_out, "Largest error outside the box (default inf)")
+        ->check([](const std::string& s) -> std::string {
+            try { parse_threshold(s, "--error-out"); } catch (const Error& e) { return e.what(); }
+            return {};
+        });
+    extract->add_option("--box", a.box, "Region x0,y0,z0,x1,y1,z1 (sample indices, inclusive)")
+        ->check([](const std::string& s) -> std::string {
+            try { parse_box(s); } catch (const Error& e) { return e.what(); }
+            return {};
+        });
+    extract->add_option("--format", a.format, "Mesh format (default: from the extension)")
+        ->check(CLI::IsMember(mesh_format_names()));
+    extract->add_option("--compress", a.compress, "Block compressor of .vtu arrays: zlib, lz4, lzma or none")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"lz4", "zlib", "lzma", "none"}));
+    extract->add_option("--compress-level", a.compress_level, "Compressor level 1..9; 0: its default")
+        ->check(CLI::Range(0, 9));
+    extract->add_option("--cache-mb", a.cache_mb, "Memory for decoded chunks per rank, in MiB")
+        ->capture_default_str()
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 30));
+    extract->footer("Every rank computes the refinement (the split set) and emits an equal share of the tets;\n"
+                    "rank 0 writes the file through the serial writer, the same bytes as `tetlod extract`.\n"
+                    "Examples:\n"
+                    "  mpirun -n 4 tetlod-mpi extract scan.tlod scan.vtu --error 1%\n"
+                    "  mpirun -n 2 tetlod-mpi extract scan.tlod roi.vtu --error 0 --box 64,64,20,192,192,80 --error-out 5%");
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -217,6 +357,7 @@ int main_mpi(int argc, char** argv, int rank, int size) {
         return 2;
     }
     try {
+        if (extract->parsed()) return run_extract(a, rank, size);
         return decode->parsed() ? run_decode(a, rank, size) : run(a, rank, size);
     } catch (const Error& e) {  // before any collective step (bad flags): the same on every rank
         if (rank == 0) std::cerr << "tetlod-mpi: error: " << e.what() << "\n";

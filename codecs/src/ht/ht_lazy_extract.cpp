@@ -56,14 +56,15 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& r, const LodQuery& quer
 }
 
 Expected<Done> extract_ht_lazy_to(tlod::ContainerReader& r, const LodQuery& query, TetMeshSink& sink,
-                                  HtExtractStats* es, HtLazyStats* ls, const HtLazyOptions& options) {
+                                  HtExtractStats* es, HtLazyStats* ls, const HtLazyOptions& options,
+                                  const HtEmitShare& share) {
     auto layout = read_ht_layout(r);
     if (!layout) return layout.failure();
     const HtLayout& L = *layout;
     HtChunkCache cache(r, L, options.cache_bytes);
     watch(cache, L, options);
     CachedSampleSource source(cache);
-    auto done = capture([&] { refine_ht_to(L.domain, source, query, labels_of(L.metadata), sink, es); });
+    auto done = capture([&] { refine_ht_to(L.domain, source, query, labels_of(L.metadata), sink, es, share); });
     if (!done) return done.failure();
     report(L, cache, r, ls);
     return done;

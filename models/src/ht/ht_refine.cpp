@@ -285,12 +285,20 @@ public:
 
     /// The mesh in parts: vertices, then tets in batches as they are emitted
     /// (a counting walk first, for the count the sink needs up front).
-    void run_to(TetMeshSink& sink, HtExtractStats* stats) {
+    void run_to(TetMeshSink& sink, HtExtractStats* stats) { run_share(sink, stats, HtEmitShare{}); }
+
+    /// Share `share.index` of `share.count` of run_to's output: the same
+    /// split set and vertex numbering (phase 1 is whole: it alone decides the
+    /// mesh, so every share numbers vertices alike), but only a run of the
+    /// walk's subtrees emitted. The runs are cut at equal fractions of the
+    /// total tet count, which every share computes alike, so the runs in share
+    /// order are run_to's tets in its order. sink.begin gets the whole count.
+    void run_share(TetMeshSink& sink, HtExtractStats* stats, const HtEmitShare& share) {
         const auto t0 = std::chrono::steady_clock::now();
         ht::MTet roots[6];
         refine(roots);
         const auto t1 = std::chrono::steady_clock::now();
-        acc_.fill_values(mesh_.points, mesh_.values);
+        if (share.vertex_values) acc_.fill_values(mesh_.points, mesh_.values);
         const std::vector<EmitItem> items = emit_items(roots);
         std::vector<uint64_t> counts(items.size());
         tbb::parallel_for(std::size_t(0), items.size(),
@@ -300,15 +308,34 @@ public:
         sink.begin(mesh_, total);
         mesh_.points = {};
         mesh_.values = {};
+        // This share's items: those whose first tet's index lies in
+        // [total * index / count, total * (index + 1) / count).
+        std::size_t first = 0, last = items.size();
+        if (share.count > 1) {
+            const auto at = [&](int k) { return uint64_t((unsigned __int128)total * uint64_t(k) / uint64_t(share.count)); };
+            const uint64_t lo = at(share.index), hi = at(share.index + 1);
+            uint64_t before = 0;
+            first = last = items.size();
+            for (std::size_t i = 0; i < items.size(); ++i) {
+                if (first == items.size() && before >= lo && counts[i] > 0) first = i;
+                if (before >= hi) {
+                    last = i;
+                    break;
+                }
+                before += counts[i];
+            }
+            if (first > last) first = last;
+        }
+        const std::size_t span = last - first;
         // Batches of subtrees, emitted in parallel, handed over in order.
-        const std::size_t chunks = std::min<std::size_t>(items.size(), kStreamChunks);
+        const std::size_t chunks = std::min<std::size_t>(span, kStreamChunks);
         for (std::size_t g = 0; g < chunks; g += kStreamChunksInFlight) {
             const std::size_t n = std::min(kStreamChunksInFlight, chunks - g);
             std::vector<EmitBuffer> out(n);
             auto run_chunk = [&](std::size_t j) {
                 auto acc = acc_.fork();
                 const std::size_t k = g + j;
-                const std::size_t b = items.size() * k / chunks, e = items.size() * (k + 1) / chunks;
+                const std::size_t b = first + span * k / chunks, e = first + span * (k + 1) / chunks;
                 for (std::size_t i = b; i < e; ++i)
                     emit(acc, items[i].t, items[i].ids, items[i].inside, items[i].positive, out[j]);
             };
@@ -323,7 +350,7 @@ public:
                 o = EmitBuffer{};
             }
         }
-        visited_ += items.size();
+        visited_ += span;
         sink.finish();
         report(stats, t0, t1);
     }
@@ -778,10 +805,13 @@ TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery
 }
 
 void refine_ht_to(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, const TetMesh& labels,
-                  TetMeshSink& sink, HtExtractStats* stats) {
+                  TetMeshSink& sink, HtExtractStats* stats, const HtEmitShare& share) {
     detail::check_query(query);
+    if (share.count < 1 || share.index < 0 || share.index >= share.count)
+        throw Error(ErrorCode::InvalidArgument, "refine_ht_to: share " + std::to_string(share.index) + " of " +
+                                                    std::to_string(share.count));
     Refiner<SourceAccess, SparseMarks> r(domain, SourceAccess(source), query, labels);
-    r.run_to(sink, stats);
+    r.run_share(sink, stats, share);
 }
 
 }  // namespace tetlod

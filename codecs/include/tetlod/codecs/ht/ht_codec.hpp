@@ -14,6 +14,7 @@
 #include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/models/ht/ht_error_sweep.hpp"
 #include "tetlod/models/ht/ht_model.hpp"
+#include "tetlod/models/ht/ht_sample_source.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/core/volume_planes.hpp"
 #include "tetlod/format/container.hpp"
@@ -205,9 +206,10 @@ Expected<TetMesh> extract_ht_lazy(tlod::ContainerReader& reader, const LodQuery&
 /// The same mesh handed to `sink` in parts (HtModel::extract_to): memory holds
 /// the cache, the split set and one batch of tets. The sink's exceptions
 /// (tetlod::Error) come back as the Failure.
+/// `share`: one part of it (HtEmitShare, models/ht/ht_sample_source.hpp).
 Expected<Done> extract_ht_lazy_to(tlod::ContainerReader& reader, const LodQuery& query, TetMeshSink& sink,
                                   HtExtractStats* stats = nullptr, HtLazyStats* lazy = nullptr,
-                                  const HtLazyOptions& options = {});
+                                  const HtLazyOptions& options = {}, const HtEmitShare& share = {});
 
 /// The original volume, bit-exact (padding removed), with its metadata restored.
 Expected<Volume> decode_volume(tlod::ContainerReader& reader,

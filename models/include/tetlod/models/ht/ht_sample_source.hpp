@@ -45,9 +45,25 @@ public:
 /// name and value type are left to the caller). Throws what the source throws.
 TetMesh refine_ht(const HtDomain& domain, HtSampleSource& source, const LodQuery& query,
                   HtExtractStats* stats = nullptr);
+/// Part of refine_ht_to's output, for distributed extraction (tetlod-mpi
+/// extract). Every share computes the whole split set and vertex numbering
+/// (they decide the mesh), then emits one run of the bisection walk's
+/// subtrees: the runs are cut at equal fractions of the total tet count, so
+/// the tets of shares 0, 1, .., count - 1 in turn are the whole mesh's tets
+/// in its order. The sink's begin() gets every vertex and the whole mesh's
+/// tet count; add() only this share's tets (so a file writer's count check
+/// holds for count == 1 only).
+struct HtEmitShare {
+    int index = 0, count = 1;
+    /// Fill the vertex values handed to begin() (only the share that writes
+    /// the vertices needs them; the others then read no field chunks for them).
+    bool vertex_values = true;
+};
+
 /// The same mesh handed to `sink` in parts (see HtModel::extract_to); `labels`
-/// gives its geometry, field name and value type.
+/// gives its geometry, field name and value type. `share`: one part of it
+/// (HtEmitShare); the default is all of it.
 void refine_ht_to(const HtDomain& domain, HtSampleSource& source, const LodQuery& query, const TetMesh& labels,
-                  TetMeshSink& sink, HtExtractStats* stats = nullptr);
+                  TetMeshSink& sink, HtExtractStats* stats = nullptr, const HtEmitShare& share = {});
 
 }  // namespace tetlod
