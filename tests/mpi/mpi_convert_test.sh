@@ -9,29 +9,9 @@
 set -uo pipefail
 case_name=$1 tetlod=$2 tetlod_mpi=$3 mpirun=$4 work=$5 data=${6:-}
 
-# As root (CI, this machine) Open MPI refuses to start without these.
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # The creation time is the only thing that would differ between two runs.
 export SOURCE_DATE_EPOCH=1700000000
-# The shared-memory transport needs no network set-up: fast and quiet in containers.
-export OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
-rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
-
-fail() { echo "FAIL: $*"; exit 1; }
-# --bind-to none: rank 0 encodes with threads (see tetlod-mpi's note on pinning).
-run_mpi() { local n=$1; shift; "$mpirun" -n "$n" --oversubscribe --bind-to none "$tetlod_mpi" "$@"; }
-if [ -n "${TETLOD_MPI_SANITIZED:-}" ]; then
-    # Open MPI unloads its plugins before LeakSanitizer runs, so their one-time
-    # allocations show up as leaks in "<unknown module>" that no suppression can
-    # name. Leak checking is off for the MPI processes only; ASan and UBSan
-    # errors still fail the test (and the serial tetlod runs keep it).
-    echo "note: sanitized build: leak checking off for the MPI processes (Open MPI's unloaded plugins)"
-    run_mpi() {
-        local n=$1; shift
-        ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$mpirun" -n "$n" --oversubscribe --bind-to none \
-            -x ASAN_OPTIONS -x UBSAN_OPTIONS "$tetlod_mpi" "$@"
-    }
-fi
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_test_env.sh"
 
 # convert_and_compare H5 LABEL [flags...]: serial once, then N = 1, 2, 4.
 convert_and_compare() {

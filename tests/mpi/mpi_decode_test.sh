@@ -11,21 +11,8 @@
 set -uo pipefail
 case_name=$1 tetlod=$2 tetlod_mpi=$3 mpirun=$4 work=$5
 
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
-rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
-
-fail() { echo "FAIL: $*"; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_test_env.sh"
 command -v h5dump > /dev/null || { echo "SKIP: h5dump (hdf5-tools) is absent"; exit 0; }
-run_mpi() { local n=$1; shift; "$mpirun" -n "$n" --oversubscribe --bind-to none "$tetlod_mpi" "$@"; }
-if [ -n "${TETLOD_MPI_SANITIZED:-}" ]; then
-    # As in mpi_convert_test.sh: Open MPI's unloaded plugins defeat LeakSanitizer.
-    run_mpi() {
-        local n=$1; shift
-        ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$mpirun" -n "$n" --oversubscribe --bind-to none \
-            -x ASAN_OPTIONS -x UBSAN_OPTIONS "$tetlod_mpi" "$@"
-    }
-fi
 
 # A container made with the serial tools from a sample volume, with geometry
 # and user metadata so that every attribute the writer knows is exercised.
@@ -145,18 +132,9 @@ failures)
     # decoded by the last rank only) or the first (the coarsest cycle, which
     # every rank decodes). Every rank ends, the existing file is untouched and
     # no temporary file is left.
-    field_offset() {  # first|last: the middle of that HT_FIELD section
-        "$tetlod" info s.tlod --json | /usr/bin/python3 -c '
-import json, sys
-f = [s for s in json.load(sys.stdin)["sections"] if s["type"] == "HT_FIELD"]
-s = f[0] if sys.argv[1] == "first" else f[-1]
-print(s["offset"] + s["stored_size"] // 2)' "$1"
-    }
     for spec in "2 last" "4 last" "3 first"; do
         set -- $spec
-        off=$(field_offset "$2") || fail "tetlod info --json"
-        cp s.tlod bad.tlod
-        printf '\xff\x00\xff\x00' | dd of=bad.tlod bs=1 seek="$off" conv=notrunc status=none
+        corrupt_field_section "$2" s.tlod bad.tlod
         run_mpi "$1" decode bad.tlod f.h5:/volume 2> err.txt
         code=$?
         [ "$code" -eq 4 ] || fail "corrupt $2 chunk, -n $1: exit $code, expected 4: $(cat err.txt)"

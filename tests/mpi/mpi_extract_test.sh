@@ -11,20 +11,7 @@
 set -uo pipefail
 case_name=$1 tetlod=$2 tetlod_mpi=$3 mpirun=$4 work=$5
 
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl=self,vader OMPI_MCA_plm_rsh_agent=false
-rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
-
-fail() { echo "FAIL: $*"; exit 1; }
-run_mpi() { local n=$1; shift; "$mpirun" -n "$n" --oversubscribe --bind-to none "$tetlod_mpi" "$@"; }
-if [ -n "${TETLOD_MPI_SANITIZED:-}" ]; then
-    # As in mpi_convert_test.sh: Open MPI's unloaded plugins defeat LeakSanitizer.
-    run_mpi() {
-        local n=$1; shift
-        ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$mpirun" -n "$n" --oversubscribe --bind-to none \
-            -x ASAN_OPTIONS -x UBSAN_OPTIONS "$tetlod_mpi" "$@"
-    }
-fi
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_test_env.sh"
 
 make_tlod() {  # NAME DIMS DTYPE OUT [convert flags]
     local name=$1 dims=$2 type=$3 out=$4; shift 4
@@ -93,18 +80,9 @@ failures)
     rm -f serial.vtu err.txt
     # A corrupt chunk (the middle of the first and of the last HT_FIELD
     # section): every rank ends with exit 4 naming the file, no output left.
-    field_offset() {  # first|last
-        "$tetlod" info s.tlod --json | /usr/bin/python3 -c '
-import json, sys
-f = [s for s in json.load(sys.stdin)["sections"] if s["type"] == "HT_FIELD"]
-s = f[0] if sys.argv[1] == "first" else f[-1]
-print(s["offset"] + s["stored_size"] // 2)' "$1"
-    }
     for spec in "2 last" "4 first" "1 last"; do
         set -- $spec
-        off=$(field_offset "$2") || fail "tetlod info --json"
-        cp s.tlod bad.tlod
-        printf '\xff\x00\xff\x00' | dd of=bad.tlod bs=1 seek="$off" conv=notrunc status=none
+        corrupt_field_section "$2" s.tlod bad.tlod
         run_mpi "$1" extract bad.tlod new.vtu --error 0 2> err.txt
         code=$?
         [ "$code" -eq 4 ] || fail "corrupt $2 chunk, -n $1: exit $code, expected 4: $(cat err.txt)"
