@@ -27,25 +27,10 @@ Error bad(const std::string& flag, const std::string& text, const std::string& w
                  (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
 }
 
-// Splits on commas; keeps empty fields so "1,,2" is reported, not silently merged.
-std::vector<std::string> split(const std::string& text) {
-    std::vector<std::string> parts;
-    std::size_t start = 0;
-    while (true) {
-        const auto comma = text.find(',', start);
-        parts.push_back(text.substr(start, comma - start));
-        if (comma == std::string::npos) break;
-        start = comma + 1;
-    }
-    return parts;
-}
-
 int64_t parse_int(const std::string& text, const std::string& flag, const std::string& whole) {
-    int64_t v = 0;
-    const char* end = text.data() + text.size();
-    auto [p, ec] = std::from_chars(text.data(), end, v);
-    if (ec != std::errc() || p != end) throw bad(flag, whole, "'" + text + "' is not an integer");
-    return v;
+    const auto v = integer_from(text);
+    if (!v) throw bad(flag, whole, "'" + text + "' is not an integer");
+    return *v;
 }
 
 }  // namespace
@@ -98,12 +83,10 @@ void detail(const std::string& message) {
 }
 
 double parse_number(const std::string& text, const std::string& flag) {
-    double v = 0.0;
-    const char* end = text.data() + text.size();
-    auto [p, ec] = std::from_chars(text.data(), end, v);
-    if (ec != std::errc() || p != end || text.empty() || !std::isfinite(v))
-        throw bad(flag, text, "not a finite number");
-    return v;
+    std::string why;
+    const auto v = finite_number_from(text, why);
+    if (!v) throw bad(flag, text, why);
+    return *v;
 }
 
 std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
@@ -114,7 +97,7 @@ std::size_t parse_byte_size(const std::string& text, const std::string& flag) {
 }
 
 Dims parse_dims(const std::string& text, const std::string& flag) {
-    const auto parts = split(text);
+    const auto parts = comma_fields(text);
     if (parts.size() != 3) throw bad(flag, text, "expected X,Y,Z");
     Dims d{parse_int(parts[0], flag, text), parse_int(parts[1], flag, text),
            parse_int(parts[2], flag, text)};
@@ -125,7 +108,7 @@ Dims parse_dims(const std::string& text, const std::string& flag) {
 }
 
 Vec3 parse_vec3(const std::string& text, const std::string& flag) {
-    const auto parts = split(text);
+    const auto parts = comma_fields(text);
     if (parts.size() != 3) throw bad(flag, text, "expected three comma-separated numbers");
     return {parse_number(parts[0], flag), parse_number(parts[1], flag),
             parse_number(parts[2], flag)};
@@ -138,35 +121,17 @@ ValueType parse_dtype(const std::string& text, const std::string& flag) {
 }
 
 std::array<int64_t, 6> parse_box(const std::string& text, const std::string& flag) {
-    const auto parts = split(text);
-    if (parts.size() != 6) throw bad(flag, text, "expected x0,y0,z0,x1,y1,z1");
-    std::array<int64_t, 6> b{};
-    for (int i = 0; i < 6; ++i) b[i] = parse_int(parts[i], flag, text);
-    for (int a = 0; a < 3; ++a)
-        if (b[a] > b[a + 3])
-            throw bad(flag, text, "each lower corner must not exceed the upper one");
-    return b;
+    std::string why;
+    const auto box = index_box_from(text, why);
+    if (!box) throw bad(flag, text, why);
+    return *box;
 }
 
-ErrorThreshold ErrorThreshold::parse(const std::string& text, const std::string& flag) {
-    if (text == "inf" || text == "unbounded" || text == "infinity")
-        return {std::numeric_limits<double>::infinity(), false};
-    ErrorThreshold t;
-    std::string number = text;
-    if (!number.empty() && number.back() == '%') {
-        t.percent = true;
-        number.pop_back();
-    }
-    t.value = parse_number(number, flag);
-    return t;
-}
-
-double ErrorThreshold::resolve(const std::array<double, 2>& range) const {
-    // Negative means "full resolution" whatever the range; keep it clearly negative
-    // (a negative percent of a zero range would otherwise become -0).
-    if (value < 0) return -1.0;
-    if (!percent) return value;
-    return value * (range[1] - range[0]) / 100.0;
+ErrorThreshold parse_error_threshold(const std::string& text, const std::string& flag) {
+    std::string why;
+    const auto t = error_threshold_from(text, why);
+    if (!t) throw bad(flag, text, why);
+    return *t;
 }
 
 std::function<std::string(const std::string&)> check_with(
@@ -251,11 +216,11 @@ void LodFlags::validate(bool need_error) const {
 }
 
 ErrorThreshold LodFlags::error_in() const {
-    return error.empty() ? ErrorThreshold{} : ErrorThreshold::parse(error, "--error");
+    return error.empty() ? ErrorThreshold{} : parse_error_threshold(error, "--error");
 }
 
 ErrorThreshold LodFlags::error_out_threshold() const {
-    return ErrorThreshold::parse(error_out.empty() ? "inf" : error_out, "--error-out");
+    return parse_error_threshold(error_out.empty() ? "inf" : error_out, "--error-out");
 }
 
 LodQuery LodFlags::region_query(const Dims* dims) const {
@@ -327,7 +292,7 @@ namespace tetlod::cli {
 
 void add_lod_flags(CLI::App& sub, LodFlags& f, const std::string& group,
                    const std::string& error_help, const std::string& full_help) {
-    const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
+    const auto threshold = check_with([](const std::string& s) { parse_error_threshold(s, ""); });
     sub.add_option("--error", f.error, error_help)->group(group)->check(threshold);
     sub.add_option("--error-out", f.error_out, "Largest error outside the region (default inf)")
         ->group(group)

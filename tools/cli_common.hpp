@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_parse.hpp"
 #include "tetlod/tetlod.hpp"
 
 namespace CLI {
@@ -78,16 +79,8 @@ double parse_number(const std::string& text, const std::string& flag);
 /// "512M", "2G", "1.5GiB", "1073741824" -> bytes (K/M/G/T are powers of 1024).
 std::size_t parse_byte_size(const std::string& text, const std::string& flag);
 
-/// An error bound as typed: absolute ("0.5"), percent of the value range
-/// ("0.1%"), unbounded ("inf", "unbounded"), or negative for full resolution.
-struct ErrorThreshold {
-    double value = 0.0;
-    bool percent = false;
-    static ErrorThreshold parse(const std::string& text, const std::string& flag);
-    /// Field units for a volume with value range [lo, hi]: percent * (hi - lo) / 100
-    /// (multiplied first so 1% of 255 is exactly 2.55). Negative stays negative.
-    double resolve(const std::array<double, 2>& range) const;
-};
+/// --error-style bound (cli_parse.hpp's ErrorThreshold).
+ErrorThreshold parse_error_threshold(const std::string& text, const std::string& flag);
 
 /// Texts of the registered query-region flags given, by region name.
 using RegionFlags = std::map<std::string, std::string>;

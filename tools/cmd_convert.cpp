@@ -56,7 +56,7 @@ int run_convert(const ConvertArgs& a) {
     // --max-error is parsed like --error; a percentage waits for the value range.
     std::optional<ErrorThreshold> max_error;
     if (!a.max_error.empty()) {
-        max_error = ErrorThreshold::parse(a.max_error, "--max-error");
+        max_error = parse_error_threshold(a.max_error, "--max-error");
         if (!(max_error->value >= 0) || !std::isfinite(max_error->value))
             throw Error(ErrorCode::InvalidArgument,
                         "--max-error '" + a.max_error + "': expected a finite bound >= 0 (0: lossless)");

@@ -31,8 +31,8 @@ int run_isosurface(const IsoArgs& a) {
 #else
     if (a.isovalues.empty())
         throw Error(ErrorCode::InvalidArgument, "give at least one --isovalue V");
-    const auto error_in = ErrorThreshold::parse(a.error, "--error");
-    const auto error_out = ErrorThreshold::parse(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
+    const auto error_in = parse_error_threshold(a.error, "--error");
+    const auto error_out = parse_error_threshold(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
     LodQuery query;
     for (const auto& s : a.isovalues) query.isovalues.push_back(parse_number(s, "--isovalue"));
     if (!a.box.empty()) query.box = parse_box(a.box, "--box");
@@ -90,7 +90,7 @@ const CommandRegistration registration{Command{
         sub.add_option("output", a->output, "Output surface (.ply, .obj, .off, .stl)")->required();
         add_volume_flags(sub, a->volume);
         const std::string lod = "Surface and level of detail";
-        const auto threshold = check_with([](const std::string& s) { ErrorThreshold::parse(s, ""); });
+        const auto threshold = check_with([](const std::string& s) { parse_error_threshold(s, ""); });
         sub.add_option("--isovalue", a->isovalues, "Isovalue V (repeat or V1,V2 for several surfaces)")
             ->group(lod)
             ->allow_extra_args(false)

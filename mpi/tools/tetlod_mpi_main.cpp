@@ -17,11 +17,13 @@
 #include <cstdio>
 #include <limits>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <sstream>
 
 #include "byte_size.hpp"
+#include "cli_parse.hpp"
 #include "exit_code.hpp"
 #include "mpi_convert.hpp"
 #include "mpi_decode.hpp"
@@ -47,60 +49,33 @@ struct Args {
     uint64_t cache_mb = 1024;
 };
 
-// --error / --error-out as `tetlod extract` reads them: a number, N% of the
-// value range, or inf; negative means full resolution.
-struct Threshold {
-    double value = std::numeric_limits<double>::infinity();
-    bool percent = false;
-    double resolve(const std::array<double, 2>& range) const {
-        if (value < 0) return -1.0;
-        return percent ? value * (range[1] - range[0]) / 100.0 : value;
-    }
-};
-
-double parse_double(const std::string& text, const std::string& flag) {
-    std::size_t used = 0;
-    double v = 0;
-    try {
-        v = std::stod(text, &used);
-    } catch (const std::exception&) {
-        used = 0;
-    }
-    if (used == 0 || used != text.size() || !std::isfinite(v))
-        throw Error(ErrorCode::InvalidArgument, flag + " '" + text + "': expected a number");
-    return v;
+// --error, --error-out and --box accept and refuse what `tetlod extract` does
+// (tools/cli_parse.hpp); a refusal names the flag and the text.
+Error bad_flag(const std::string& flag, const std::string& text, const std::string& why) {
+    return Error(ErrorCode::InvalidArgument, (flag.empty() ? "" : flag + " ") + "'" + text + "': " + why);
 }
 
-Threshold parse_threshold(const std::string& text, const std::string& flag) {
-    if (text == "inf" || text == "unbounded" || text == "infinity") return {};
-    Threshold t;
-    std::string number = text;
-    if (!number.empty() && number.back() == '%') {
-        t.percent = true;
-        number.pop_back();
-    }
-    t.value = parse_double(number, flag);
-    return t;
+cli::ErrorThreshold parse_threshold(const std::string& text, const std::string& flag) {
+    std::string why;
+    const auto t = cli::error_threshold_from(text, why);
+    if (!t) throw bad_flag(flag, text, why);
+    return *t;
 }
 
 std::array<int64_t, 6> parse_box(const std::string& text) {
-    std::array<int64_t, 6> b{};
-    std::stringstream in(text);
-    std::string part;
-    int n = 0;
-    while (std::getline(in, part, ',')) {
-        if (n == 6) break;
-        const double v = parse_double(part, "--box");
-        if (v != std::floor(v)) throw Error(ErrorCode::InvalidArgument, "--box '" + text + "': expected integers");
-        b[std::size_t(n++)] = int64_t(v);
-    }
-    if (n != 6 || std::getline(in, part))
-        throw Error(ErrorCode::InvalidArgument, "--box '" + text + "': expected x0,y0,z0,x1,y1,z1");
-    for (int a = 0; a < 3; ++a)
-        if (b[std::size_t(a)] > b[std::size_t(a + 3)])
-            throw Error(ErrorCode::InvalidArgument,
-                        "--box '" + text + "': each lower corner must not exceed the upper one");
-    return b;
+    std::string why;
+    const auto box = cli::index_box_from(text, why);
+    if (!box) throw bad_flag("--box", text, why);
+    return *box;
+}
+
+// A CLI11 check (exit 2 before any work); CLI11 prefixes the option's name.
+template <class Parse>
+std::function<std::string(const std::string&)> check_text(Parse parse) {
+    return [parse](const std::string& text) -> std::string {
+        std::string why;
+        return parse(text, why) ? std::string() : bad_flag("", text, why).what();
+    };
 }
 
 void check_meta(const std::vector<std::string>& meta) {
@@ -189,8 +164,8 @@ int run_extract(const Args& a, int rank, int size) {
     o.write.compression_level = a.compress_level;
     o.cache_bytes = std::size_t(a.cache_mb) << 20;
     if (!a.box.empty()) o.query.box = parse_box(a.box);
-    const Threshold in = parse_threshold(a.error, "--error");
-    const Threshold outside = parse_threshold(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
+    const cli::ErrorThreshold in = parse_threshold(a.error, "--error");
+    const cli::ErrorThreshold outside = parse_threshold(a.error_out.empty() ? "inf" : a.error_out, "--error-out");
     o.resolve = [in, outside](LodQuery& q, const std::array<double, 2>& range) {
         q.error_in = in.resolve(range);
         q.error_out = outside.resolve(range);
@@ -318,20 +293,11 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     extract->add_option("output", a.output, "Output mesh (.vtu, .vtk, .msh; written by rank 0, atomically)")->required();
     extract->add_option("--error", a.error, "Largest error allowed (inside the box if any): E, N% of the value range, inf, or negative = full resolution")
         ->required()
-        ->check([](const std::string& s) -> std::string {
-            try { parse_threshold(s, "--error"); } catch (const Error& e) { return e.what(); }
-            return {};
-        });
+        ->check(check_text(cli::error_threshold_from));
     extract->add_option("--error-out", a.error_out, "Largest error outside the box (default inf)")
-        ->check([](const std::string& s) -> std::string {
-            try { parse_threshold(s, "--error-out"); } catch (const Error& e) { return e.what(); }
-            return {};
-        });
+        ->check(check_text(cli::error_threshold_from));
     extract->add_option("--box", a.box, "Region x0,y0,z0,x1,y1,z1 (sample indices, inclusive)")
-        ->check([](const std::string& s) -> std::string {
-            try { parse_box(s); } catch (const Error& e) { return e.what(); }
-            return {};
-        });
+        ->check(check_text(cli::index_box_from));
     extract->add_option("--format", a.format, "Mesh format (default: from the extension)")
         ->check(CLI::IsMember(mesh_format_names()));
     extract->add_option("--compress", a.compress, "Block compressor of .vtu arrays: zlib, lz4, lzma or none")

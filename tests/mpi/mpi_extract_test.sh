@@ -114,6 +114,17 @@ failures)
     code=$?
     [ "$code" -eq 3 ] && grep -q "nodir" err.txt || fail "missing folder: exit $code: $(cat err.txt)"
     echo "ok: missing folder: exit 3: $(head -1 err.txt)"
+    # Flags: the same texts refused as by `tetlod extract`, with the same message.
+    for flags in "--error 1e" "--error nan" "--error 0 --box 8.0,1,1,20,20,20" "--error 0 --box 1,1,1,4,4" \
+                 "--error 0 --box 5,1,1,4,4,4" "--error 0 --box 1,1,1,4,4,4 --error-out 5%%"; do
+        run_mpi 1 extract s.tlod new.vtu $flags 2> err.txt
+        code=$?
+        "$tetlod" extract s.tlod new.vtu $flags 2> serial.txt
+        want=$(head -1 serial.txt | sed 's/^tetlod: //')
+        [ "$code" -eq 2 ] && grep -qF -- "$want" err.txt || fail "$flags: exit $code: $(cat err.txt), tetlod: $want"
+        echo "ok: $flags: exit 2: $want"
+    done
+    rm -f err.txt serial.txt
     rm -f err.txt
     only out.vtu s.tlod
     ;;
