@@ -24,21 +24,28 @@ struct TetRun {
 
 /// The sink of a rank other than 0: its run is kept (its share of the output)
 /// until the ranks agree that all of them emitted theirs; the vertices, which
-/// rank 0 writes, are not kept. Batch by batch, each at its exact size: one
-/// growing vector would hold up to twice the run while it reallocates.
+/// rank 0 writes, are not kept. In batches of at most kBatchTets: one growing
+/// vector would hold up to twice the run while it reallocates, and the
+/// emitter's own batches can be a few dozen tets, each of which would cost
+/// four messages to send.
 class RunKeeper final : public TetMeshSink {
 public:
+    static constexpr std::size_t kBatchTets = std::size_t{1} << 18;  // 5.5 MB
     void begin(const TetMesh& vertices, uint64_t tet_count) override {
         vertices_ = vertices.points.size();
         total_ = tet_count;
     }
     void add(std::span<const std::array<uint32_t, 4>> t, std::span<const uint8_t> l,
              std::span<const float> e) override {
-        if (t.empty()) return;
-        TetRun& b = batches.emplace_back();
-        b.tets.assign(t.begin(), t.end());
-        b.level.assign(l.begin(), l.end());
-        b.error.assign(e.begin(), e.end());
+        for (std::size_t at = 0; at < t.size();) {
+            if (batches.empty() || batches.back().tets.size() >= kBatchTets) batches.emplace_back();
+            TetRun& b = batches.back();
+            const std::size_t k = std::min(t.size() - at, kBatchTets - b.tets.size());
+            b.tets.insert(b.tets.end(), t.begin() + at, t.begin() + at + k);
+            b.level.insert(b.level.end(), l.begin() + at, l.begin() + at + k);
+            b.error.insert(b.error.end(), e.begin() + at, e.begin() + at + k);
+            at += k;
+        }
         tets_ += t.size();
     }
     void finish() override {}
@@ -71,11 +78,13 @@ private:
 /// Rank r > 0: its run to rank 0, as the number of pieces, then each piece's
 /// size, tets, levels and errors (batches cut into pieces of at most `piece`
 /// tets, so every message stays far below MPI's 2^31 count). Each batch is
-/// released once sent.
-void send_run(MPI_Comm comm, std::vector<TetRun>& batches, std::size_t piece) {
+/// released once sent. Counts what it sends in `traffic`.
+void send_run(MPI_Comm comm, std::vector<TetRun>& batches, std::size_t piece, ExtractTraffic& traffic) {
     uint64_t pieces = 0;
     for (const TetRun& b : batches) pieces += (b.tets.size() + piece - 1) / piece;
     MPI_Send(&pieces, 1, MPI_UINT64_T, 0, 0, comm);
+    traffic.messages += 1;
+    traffic.bytes_sent += sizeof pieces;
     for (TetRun& run : batches) {
         for (std::size_t b = 0; b < run.tets.size(); b += piece) {
             const std::size_t k = std::min(piece, run.tets.size() - b);
@@ -84,16 +93,21 @@ void send_run(MPI_Comm comm, std::vector<TetRun>& batches, std::size_t piece) {
             MPI_Send(run.tets.data() + b, int(k * 16), MPI_BYTE, 0, 1, comm);
             MPI_Send(run.level.data() + b, int(k), MPI_BYTE, 0, 2, comm);
             MPI_Send(run.error.data() + b, int(k * 4), MPI_BYTE, 0, 3, comm);
+            traffic.messages += 4;
+            traffic.bytes_sent += sizeof n + k * 21;
         }
         run = TetRun{};
     }
 }
 
 /// Rank 0: the run of rank `from`, piece by piece into `to` (nullptr: received
-/// and dropped, after a failure, so the sender is not left blocked).
-void receive_run(MPI_Comm comm, int from, TetMeshSink* to) {
+/// and dropped, after a failure, so the sender is not left blocked). Counts
+/// what it receives in `traffic`.
+void receive_run(MPI_Comm comm, int from, TetMeshSink* to, ExtractTraffic& traffic) {
     uint64_t pieces = 0;
     MPI_Recv(&pieces, 1, MPI_UINT64_T, from, 0, comm, MPI_STATUS_IGNORE);
+    traffic.messages += 1;
+    traffic.bytes_received += sizeof pieces;
     TetRun buf;
     for (uint64_t p = 0; p < pieces; ++p) {
         uint64_t k = 0;
@@ -104,6 +118,8 @@ void receive_run(MPI_Comm comm, int from, TetMeshSink* to) {
         MPI_Recv(buf.tets.data(), int(k * 16), MPI_BYTE, from, 1, comm, MPI_STATUS_IGNORE);
         MPI_Recv(buf.level.data(), int(k), MPI_BYTE, from, 2, comm, MPI_STATUS_IGNORE);
         MPI_Recv(buf.error.data(), int(k * 4), MPI_BYTE, from, 3, comm, MPI_STATUS_IGNORE);
+        traffic.messages += 4;
+        traffic.bytes_received += sizeof k + k * 21;
         if (to) to->add(buf.tets, buf.level, buf.error);
     }
 }
@@ -188,12 +204,12 @@ MpiExtractResult extract_mpi(MPI_Comm comm, const std::string& input, const std:
     result.failure = agree(comm, run_local(
                                      [&] {
                                          if (rank != 0) {
-                                             send_run(comm, kept.batches, o.message_tets);
+                                             send_run(comm, kept.batches, o.message_tets, mine);
                                              return;
                                          }
                                          std::optional<RankFailure> first;
                                          for (int r = 1; r < size; ++r) {
-                                             auto f = run_local([&] { receive_run(comm, r, first ? nullptr : held.get()); }, 0);
+                                             auto f = run_local([&] { receive_run(comm, r, first ? nullptr : held.get(), mine); }, 0);
                                              if (f && !first) first = f;
                                          }
                                          if (first) throw Error(first->code, first->message);
@@ -207,13 +223,16 @@ MpiExtractResult extract_mpi(MPI_Comm comm, const std::string& input, const std:
     mine.peak_rss_mb = peak;
     double max_error = result.max_error;
     MPI_Allreduce(&max_error, &result.max_error, 1, MPI_DOUBLE, MPI_MAX, comm);
-    const double row[6] = {double(mine.tets), double(mine.chunks_decoded), mine.refine_seconds, mine.emit_seconds,
-                           mine.cpu_seconds, mine.peak_rss_mb};
-    std::vector<double> rows(rank == 0 ? std::size_t(size) * 6 : 0);
-    MPI_Gather(row, 6, MPI_DOUBLE, rows.data(), 6, MPI_DOUBLE, 0, comm);
+    constexpr int kFields = 9;  // doubles hold these counts exactly (below 2^53)
+    const double row[kFields] = {double(mine.tets),       double(mine.chunks_decoded), double(mine.bytes_sent),
+                                 double(mine.bytes_received), double(mine.messages),  mine.refine_seconds,
+                                 mine.emit_seconds,       mine.cpu_seconds,            mine.peak_rss_mb};
+    std::vector<double> rows(rank == 0 ? std::size_t(size) * kFields : 0);
+    MPI_Gather(row, kFields, MPI_DOUBLE, rows.data(), kFields, MPI_DOUBLE, 0, comm);
     for (int r = 0; rank == 0 && r < size; ++r) {
-        const double* x = rows.data() + std::size_t(r) * 6;
-        result.traffic.push_back({uint64_t(x[0]), uint64_t(x[1]), x[2], x[3], x[4], x[5]});
+        const double* x = rows.data() + std::size_t(r) * kFields;
+        result.traffic.push_back({uint64_t(x[0]), uint64_t(x[1]), uint64_t(x[2]), uint64_t(x[3]), uint64_t(x[4]),
+                                  x[5], x[6], x[7], x[8]});
     }
     return result;
 }

@@ -48,6 +48,9 @@ struct MpiExtractOptions {
 struct ExtractTraffic {
     uint64_t tets = 0;          // of its run
     uint64_t chunks_decoded = 0;
+    uint64_t bytes_sent = 0;      // its run to rank 0 (ranks > 0)
+    uint64_t bytes_received = 0;  // the other ranks' runs (rank 0)
+    uint64_t messages = 0;        // point-to-point messages sent and received (collectives not counted)
     double refine_seconds = 0;  // split set (the same work on every rank)
     double emit_seconds = 0;    // its run (rank 0: with writing the vertices and its run)
     double cpu_seconds = 0;     // user CPU time of the process, at the end

@@ -182,13 +182,16 @@ int run_extract(const Args& a, int rank, int size) {
               << r.max_error << " (from " << d.x << "x" << d.y << "x" << d.z << " " << value_type_name(r.type)
               << "), " << size << (size == 1 ? " rank" : " ranks") << ", " << MPI_Wtime() - t0 << " s\n";
     if (a.verbose > 0) {
-        std::cerr << "rank         tets  chunks  refine s  emit s  user CPU s  peak RSS MB\n";
+        std::cerr << "rank         tets  chunks    bytes sent  bytes received  messages  refine s  emit s  user CPU s  "
+                     "peak RSS MB\n";
         for (std::size_t i = 0; i < r.traffic.size(); ++i) {
             const auto& t = r.traffic[i];
             char row[200];
-            std::snprintf(row, sizeof row, "%4zu %12llu %7llu %9.3f %7.3f %11.3f %12.1f\n", i,
-                          (unsigned long long)t.tets, (unsigned long long)t.chunks_decoded, t.refine_seconds,
-                          t.emit_seconds, t.cpu_seconds, t.peak_rss_mb);
+            std::snprintf(row, sizeof row, "%4zu %12llu %7llu %13llu %15llu %9llu %9.3f %7.3f %11.3f %12.1f\n", i,
+                          (unsigned long long)t.tets, (unsigned long long)t.chunks_decoded,
+                          (unsigned long long)t.bytes_sent, (unsigned long long)t.bytes_received,
+                          (unsigned long long)t.messages, t.refine_seconds, t.emit_seconds, t.cpu_seconds,
+                          t.peak_rss_mb);
             std::cerr << row;
         }
     }
