@@ -17,6 +17,39 @@
 
 namespace tetlod::mpi {
 
+namespace {
+
+// MPI's user operations are plain functions: the sweep whose layout the
+// maxima follow is reached through this pointer, set only around the call.
+const HtRangeErrors* g_reducing = nullptr;
+
+void merge_maxima_op(void* in, void* inout, int* count, MPI_Datatype*) {
+    g_reducing->merge_maxima(static_cast<const std::byte*>(in), static_cast<std::byte*>(inout),
+                             std::size_t(*count) * g_reducing->partial_maximum_bytes());
+}
+
+/// `maxima` (this rank's partial_maxima()) becomes the maxima over every rank:
+/// one MPI_Allreduce with a commutative user operation, so a rank receives
+/// about twice the buffer whatever the number of ranks (an MPI_Allgather gave
+/// every rank every rank's copy). Collective.
+void reduce_maxima(MPI_Comm comm, const HtRangeErrors& errors, std::vector<std::byte>& maxima) {
+    const std::size_t each = errors.partial_maximum_bytes();
+    const std::size_t count = maxima.size() / each;
+    if (count == 0) return;  // the same on every rank: the domain fixes the size
+    MPI_Datatype maximum;
+    MPI_Type_contiguous(int(each), MPI_BYTE, &maximum);
+    MPI_Type_commit(&maximum);
+    MPI_Op op;
+    MPI_Op_create(&merge_maxima_op, /*commute=*/1, &op);
+    g_reducing = &errors;
+    MPI_Allreduce(MPI_IN_PLACE, maxima.data(), int(count), maximum, op, comm);
+    g_reducing = nullptr;
+    MPI_Op_free(&op);
+    MPI_Type_free(&maximum);
+}
+
+}  // namespace
+
 std::pair<std::string, std::string> split_hdf5_location(const std::string& input) {
     std::string lower = input;
     std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -137,8 +170,8 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
     traffic.bytes_sent += scan.coarse.size() + 3 * sizeof(double);
 
     // E: every rank computes the errors of the diamonds centred in its
-    // planes; the large diamonds' partial maxima are gathered by every rank
-    // and merged (a maximum of maxima: exact in any order), then finished.
+    // planes; the large diamonds' partial maxima are reduced over the ranks
+    // (a maximum of maxima: exact in any order), then finished.
     std::unique_ptr<HtRangeErrors> errors;
     result.failure = run_phase(comm, [&] {
         errors = std::make_unique<HtRangeErrors>(local, o.write.pad, scan.range, scan.coarse, za, zb);
@@ -149,16 +182,14 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
     });
     if (result.failure) return result;
     {
-        const std::vector<std::byte> mine = errors->partial_maxima();
-        std::vector<std::byte> all(mine.size() * std::size_t(size));
-        MPI_Allgather(mine.data(), int(mine.size()), MPI_BYTE, all.data(), int(mine.size()), MPI_BYTE, comm);
+        std::vector<std::byte> maxima = errors->partial_maxima();
+        reduce_maxima(comm, *errors, maxima);
         result.failure = run_phase(comm, [&] {
-            for (int r = 0; r < size; ++r)
-                if (r != rank) errors->merge_partial_maxima(all.data() + std::size_t(r) * mine.size(), mine.size());
+            errors->merge_partial_maxima(maxima.data(), maxima.size());
             errors->finish();
         });
-        traffic.bytes_sent += mine.size();
-        traffic.bytes_received += all.size() - mine.size();
+        traffic.bytes_sent += maxima.size();  // what the rank contributes; MPI's tree moves it
+        traffic.bytes_received += maxima.size();
         if (result.failure) return result;
     }
 

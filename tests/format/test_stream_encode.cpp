@@ -207,7 +207,7 @@ private:
 };
 
 /// The scan and the final errors of `parts` ranges of planes, merged as tetlod-mpi
-/// merges them (every part gets the others' partial maxima).
+/// merges them (the partial maxima reduced over the parts).
 struct ErrorsInParts {
     HtScanPart scan;
     std::vector<std::unique_ptr<HtRangeErrors>> errors;
@@ -226,12 +226,20 @@ ErrorsInParts errors_in_parts(VolumePlanes& source, const HtDomain& d, bool pad,
                                                          planes * r / parts, planes * (r + 1) / parts - 1, 5));
         errors.back()->compute();
     }
-    std::vector<std::vector<std::byte>> maxima;
-    for (const auto& e : errors) maxima.push_back(e->partial_maxima());
-    for (int r = 0; r < parts; ++r) {
-        for (int q = 0; q < parts; ++q)
-            if (q != r) errors[std::size_t(r)]->merge_partial_maxima(maxima[std::size_t(q)].data(), maxima[std::size_t(q)].size());
-        errors[std::size_t(r)]->finish();
+    // As tetlod-mpi's MPI_Allreduce: the user operation (merge_maxima) folds
+    // the parts' buffers, here in pieces of 3 maxima (MPI may cut a reduction
+    // at any whole element), from the last part down; every part then merges
+    // the total into its own maxima.
+    std::vector<std::byte> total = errors.back()->partial_maxima();
+    const std::size_t piece = 3 * errors[0]->partial_maximum_bytes();
+    for (int q = parts - 2; q >= 0; --q) {
+        const std::vector<std::byte> theirs = errors[std::size_t(q)]->partial_maxima();
+        for (std::size_t at = 0; at < total.size(); at += piece)
+            errors[0]->merge_maxima(theirs.data() + at, total.data() + at, std::min(piece, total.size() - at));
+    }
+    for (auto& e : errors) {
+        e->merge_partial_maxima(total.data(), total.size());
+        e->finish();
     }
     return out;
 }

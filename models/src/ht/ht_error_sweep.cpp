@@ -17,6 +17,8 @@ struct HtErrorSweep::Impl {
     virtual void set_partial(bool partial) = 0;
     virtual std::vector<std::byte> partial_maxima() const = 0;
     virtual void merge_partial_maxima(const std::byte* other, std::size_t bytes) = 0;
+    virtual std::size_t partial_maximum_bytes() const = 0;
+    virtual void merge_maxima(const std::byte* in, std::byte* inout, std::size_t bytes) const = 0;
     virtual void finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink) = 0;
 };
 
@@ -91,14 +93,22 @@ public:
             throw Error(ErrorCode::InvalidArgument, "HtErrorSweep: partial maxima of another domain");
         std::size_t at = 0;
         for (auto& p : partial_) {
-            for (Acc& mine : p) {
-                Acc theirs;
-                std::memcpy(&theirs, other + at, sizeof(Acc));
-                at += sizeof(Acc);
-                // kCrossing (-1) is below every maximum: keep it explicitly.
-                if (mine == kCrossing || theirs == kCrossing) mine = kCrossing;
-                else if (theirs > mine) mine = theirs;
-            }
+            merge_maxima(other + at, reinterpret_cast<std::byte*>(p.data()), p.size() * sizeof(Acc));
+            at += p.size() * sizeof(Acc);
+        }
+    }
+
+    std::size_t partial_maximum_bytes() const override { return sizeof(Acc); }
+
+    void merge_maxima(const std::byte* in, std::byte* inout, std::size_t bytes) const override {
+        for (std::size_t at = 0; at + sizeof(Acc) <= bytes; at += sizeof(Acc)) {
+            Acc theirs, mine;
+            std::memcpy(&theirs, in + at, sizeof(Acc));
+            std::memcpy(&mine, inout + at, sizeof(Acc));
+            // kCrossing (-1) is below every maximum: keep it explicitly.
+            if (mine == kCrossing || theirs == kCrossing) mine = kCrossing;
+            else if (theirs > mine) mine = theirs;
+            std::memcpy(inout + at, &mine, sizeof(Acc));
         }
     }
 
@@ -289,6 +299,12 @@ std::vector<std::byte> HtErrorSweep::partial_maxima() const { return impl_->part
 
 void HtErrorSweep::merge_partial_maxima(const std::byte* other, std::size_t bytes) {
     impl_->merge_partial_maxima(other, bytes);
+}
+
+std::size_t HtErrorSweep::partial_maximum_bytes() const { return impl_->partial_maximum_bytes(); }
+
+void HtErrorSweep::merge_maxima(const std::byte* in, std::byte* inout, std::size_t bytes) const {
+    impl_->merge_maxima(in, inout, bytes);
 }
 
 void HtErrorSweep::finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink) {

@@ -61,6 +61,11 @@ public:
     /// The large diamonds' running maxima: merge those of every process, then finish().
     std::vector<std::byte> partial_maxima() const { return sweep_.partial_maxima(); }
     void merge_partial_maxima(const std::byte* other, std::size_t bytes) { sweep_.merge_partial_maxima(other, bytes); }
+    /// For a reduction (MPI_Allreduce with a user operation): see HtErrorSweep::merge_maxima.
+    std::size_t partial_maximum_bytes() const { return sweep_.partial_maximum_bytes(); }
+    void merge_maxima(const std::byte* in, std::byte* inout, std::size_t bytes) const {
+        sweep_.merge_maxima(in, inout, bytes);
+    }
     void finish();
 
     const HtDomain& domain() const { return d_; }

@@ -83,6 +83,12 @@ public:
     /// Takes the maximum with another sweep's partial_maxima() (a diamond
     /// crossing the data box stays so).
     void merge_partial_maxima(const std::byte* other, std::size_t bytes);
+    /// Bytes of one running maximum in partial_maxima() (every one the same type).
+    std::size_t partial_maximum_bytes() const;
+    /// The same merge on buffers: `inout` becomes the maximum of `in` and
+    /// `inout`, over `bytes` (a whole number of maxima, any aligned part of two
+    /// partial_maxima(): what a reduction over processes needs). Never throws.
+    void merge_maxima(const std::byte* in, std::byte* inout, std::size_t bytes) const;
     /// Hands over the large diamonds centred in planes za..zb (after the merge).
     void finish_range(int64_t za, int64_t zb, HtErrorPlaneSink& sink);
 
