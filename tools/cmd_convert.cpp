@@ -75,9 +75,9 @@ int run_convert(const ConvertArgs& a) {
     // format that reads planes (raw, NRRD, MetaImage, HDF5, OpenVDB); the
     // rest (formats added without open_planes) reads the volume whole.
     std::unique_ptr<VolumePlanes> planes;
-    // A lossy field is chosen over the whole volume in the coder's order: read whole.
-    const bool lossy = max_error && max_error->value > 0;
-    if (with_ht && !with_mt && !a.in_memory && !lossy) planes = open_volume_planes(a.input, a.volume.options());
+    // Lossy too: the library reads the volume whole when that fits the budget
+    // (the best field is chosen in the coder's order), else streams two candidates.
+    if (with_ht && !with_mt && !a.in_memory) planes = open_volume_planes(a.input, a.volume.options());
     std::optional<Volume> whole;
     if (planes) {
         Volume h = planes->header();
@@ -87,9 +87,7 @@ int run_convert(const ConvertArgs& a) {
     } else {
         if (!a.memory.empty() && !a.in_memory)
             detail("note: " + a.input + " is read whole (" +
-                   std::string(with_mt ? "the MT is built in memory"
-                               : lossy   ? "--max-error chooses the field over the whole volume"
-                                         : "its format is not read plane by plane") +
+                   std::string(with_mt ? "the MT is built in memory" : "its format is not read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);
@@ -119,7 +117,12 @@ int run_convert(const ConvertArgs& a) {
                                 : planes_value_range(*planes_of(*whole));
         wo.max_error = max_error->resolve(range);
         detail("--max-error " + a.max_error + " = " + format_max_error(wo.max_error) +
-               " in field units (integers honour its integer part); the volume is read whole");
+               " in field units (integers honour its integer part)");
+        if (planes)
+            detail(lossy_reads_whole(planes->header(), memory)
+                       ? "lossy: converted in memory (within " + format_bytes(memory) + "), the best of three fields kept"
+                       : "lossy: more than " + format_bytes(memory) +
+                             " in memory: the lossless and lattice fields streamed, the smaller kept");
     }
     wo.source_path = a.input;
     wo.converter = "tetlod convert";

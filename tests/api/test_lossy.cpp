@@ -150,6 +150,35 @@ TEST(Lossy, ZeroIsLosslessByteForByte) {
     EXPECT_TRUE(std::equal(d.data.begin(), d.data.end(), v.data.begin(), v.data.end()));
 }
 
+/// Above the memory budget the planes overload streams two candidates
+/// (lossless, lattice) instead of reading the volume whole: every sample still
+/// within E, the lattice file kept for a smooth float field, and no candidate
+/// file left behind. (Its size against the whole-volume path, which tries a
+/// third field: docs/archival.md.)
+TEST(Lossy, BoundedMemoryStreamsTwoCandidates) {
+    // 1.92 M f64 points: the whole path needs ~69 MB, above a 64 MiB budget
+    // that the streaming encoder can still work in (thin planes).
+    const Volume v = test::make_volume({40, 40, 1200}, ValueType::F64, test::Field::Smooth);
+    const double e = double(range_of(v)) / 100;
+    ContainerWriteOptions o = lossy(e);
+    o.brick_log2 = 2;
+    o.memory_bytes = std::size_t{64} << 20;
+    ASSERT_FALSE(lossy_reads_whole(v, o.memory_bytes));
+    ASSERT_TRUE(lossy_reads_whole(v, std::size_t{1} << 30));
+    const std::string streamed = tmp("bounded_stream.tlod");
+    auto planes = planes_of(v);
+    const ContainerWriteSummary s = write_container(*planes, streamed, o);
+    EXPECT_EQ(s.max_error, e);  // a smooth float field: the lattice file wins
+    const Volume d = decode_container(streamed).take();
+    ASSERT_EQ(d.dims, v.dims);
+    EXPECT_EQ(beyond(v, d, e), 0);
+    const ContainerInfo info = inspect_container(streamed).take();
+    EXPECT_EQ(info.max_error, e);
+    EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossy);
+    for (const auto& entry : std::filesystem::directory_iterator(TETLOD_TEST_TMP))
+        EXPECT_EQ(entry.path().filename().string().find(".tetlod-lossy-"), std::string::npos) << entry.path();
+}
+
 TEST(Lossy, BoundAgainstOriginalRoundsUp) {
     for (float s : {0.0f, 1e-7f, 0.3f, 1.0f, 255.0f, 3.4e38f})
         for (double e : {1e-9, 0.1, 0.5, 2.55, 1e30}) {

@@ -74,7 +74,9 @@ struct ContainerWriteOptions {
     /// against the original (readers add max_error). HT only (with the MT:
     /// InvalidArgument). 0: lossless, the same bytes as without it. Integer
     /// volumes honour (and state) floor(max_error); below 1 they stay lossless.
-    /// The volume is read whole (the lossy field is chosen in the coder's order).
+    /// The volume is read whole when lossy_reads_whole() says it fits
+    /// memory_bytes (the best of three fields is kept); otherwise the
+    /// VolumePlanes overload streams two (lossless, lattice) and keeps the smaller.
     double max_error = 0;
 };
 
@@ -99,11 +101,23 @@ tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOpti
 /// The HT encoder's options write_container uses for `options`.
 HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& options);
 
+/// Whether a lossy conversion (max_error > 0) of a volume with this header is
+/// done in memory within `memory_bytes` (0: default_memory_budget()): the
+/// volume, two quantized copies and a model's bounds, about 4 (value size + 1)
+/// bytes a point. Then the best of three fields is kept: lossless, one
+/// following the coder's predictions, one on a lattice. Otherwise the
+/// VolumePlanes overload streams the lossless and the lattice fields to
+/// candidate files beside the output and keeps the smaller (the prediction-
+/// following field needs the whole volume in the coder's order).
+bool lossy_reads_whole(const Volume& header, std::size_t memory_bytes);
+
 /// The same container written from a volume read plane by plane: with the
 /// HT alone, in memory bounded by options.memory_bytes rather than by the
 /// volume (two passes over the planes; same bytes as the overload below;
 /// progress stages "scan HT" and "encode HT" over planes, then "encoded HT").
 /// With the MT the planes are read into memory first (the MT is built whole).
+/// Lossy: see lossy_reads_whole (the same bytes as the overload below when it
+/// holds).
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& options = {});
 

@@ -9,9 +9,13 @@
 #include <ctime>
 #include <filesystem>
 #include <cmath>
+#include <memory>
 #include <optional>
+#include <vector>
 
 #include "tetlod/analysis/stopwatch.hpp"
+#include "tetlod/core/atomic_file.hpp"
+#include "tetlod/core/output_policy.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
@@ -144,12 +148,115 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
     return summary;
 }
 
+HtStreamEncodeOptions stream_options(const ContainerWriteOptions& o) {
+    HtStreamEncodeOptions so;
+    so.pad = o.pad;
+    so.encode = container_ht_encode_options(o);
+    so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
+    so.errors = o.ht_errors;
+    if (o.progress)
+        so.progress = [&o](const char* stage, uint64_t done, uint64_t total) {
+            o.progress(std::string(stage) + " HT", std::size_t(done), std::size_t(total));
+        };
+    return so;
+}
+
+/// A candidate file of the bounded lossy path, removed unless kept: beside the
+/// output (same file system, where the user agreed to write), or in the
+/// temporary directory when the output is not a regular file ("-", a FIFO).
+class CandidateFile {
+public:
+    CandidateFile(const std::string& output, int index) {
+        namespace fs = std::filesystem;
+        std::error_code ec;
+        const fs::path out(output);
+        const bool beside = output != "-" && (!fs::exists(out, ec) || fs::is_regular_file(out, ec));
+        const fs::path dir = beside ? (out.has_parent_path() ? out.parent_path() : fs::path(".")) : fs::temp_directory_path();
+        path_ = (dir / (".tetlod-lossy-" + std::to_string(::getpid()) + "-" + std::to_string(index) + ".tlod")).string();
+    }
+    ~CandidateFile() {
+        std::error_code ec;
+        std::filesystem::remove(path_, ec);
+    }
+    CandidateFile(const CandidateFile&) = delete;
+    CandidateFile& operator=(const CandidateFile&) = delete;
+    const std::string& path() const { return path_; }
+
+private:
+    std::string path_;
+};
+
+/// Copies a finished candidate to the output atomically (the output policy is
+/// consulted there, as for any output).
+void copy_to_output(const std::string& from, const std::string& to) {
+    std::FILE* in = std::fopen(from.c_str(), "rb");
+    if (!in) throw Error(ErrorCode::IoError, "'" + from + "': cannot open the candidate container");
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> closer(in, &std::fclose);
+    AtomicFile out(to);
+    std::vector<char> block(std::size_t{1} << 20);
+    while (const std::size_t n = std::fread(block.data(), 1, block.size(), in)) out.write(block.data(), n);
+    if (std::ferror(in)) throw Error(ErrorCode::IoError, "'" + from + "': read error");
+    out.commit();
+}
+
+/// Lossy archival in bounded memory (the VolumePlanes overload, when the
+/// whole-volume path would exceed the budget): the lossless field and the
+/// lattice field (quantized_planes, plane by plane) are each streamed to a
+/// candidate file, and the smaller is copied to the output. The field that
+/// follows the coder's predictions needs the whole volume in the coder's order
+/// and is not tried, so the file may be larger than the whole-volume path's.
+ContainerWriteSummary write_lossy_streaming(VolumePlanes& source, const std::string& path,
+                                           const ContainerWriteOptions& o, double max_error,
+                                           const Stopwatch& clock) {
+    check_output(path);  // an output refused is refused before the work, as other writers do
+    const tlod::Metadata meta = container_metadata(source.header(), o);
+    const std::unique_ptr<VolumePlanes> lattice = quantized_planes(source, max_error);
+    ContainerWriteSummary summary;
+    std::optional<CandidateFile> files[2];
+    int best = 0;
+    uint64_t best_bytes = 0;
+    for (int i = 0; i < 2; ++i) {
+        files[i].emplace(path, i);
+        HtStreamEncodeOptions so = stream_options(o);
+        so.encode.max_error = i == 0 ? 0.0 : max_error;
+        // Scratch files: written under a policy of their own, so the caller's
+        // lists only the output (new names, so nothing to refuse).
+        OutputPolicy scratch;
+        std::optional<ScopedOutputPolicy> own(std::in_place, scratch);
+        const HtStreamEncodeSummary s =
+            write_ht_container_streaming(i == 0 ? source : *lattice, meta, files[i]->path(), so);
+        own.reset();
+        summary.ht_k = s.domain.k;
+        summary.ht_max_level = s.domain.max_level();
+        const uint64_t bytes = std::filesystem::file_size(files[i]->path());
+        if (i == 0 || bytes < best_bytes) {  // ties go to the lossless file
+            best = i;
+            best_bytes = bytes;
+            summary.max_error = so.encode.max_error;
+        }
+    }
+    if (o.progress) o.progress("encoded HT", 0, 0);
+    copy_to_output(files[best]->path(), path);
+    std::error_code size_error;  // "-" (standard output) has no size
+    summary.bytes = std::filesystem::file_size(path, size_error);
+    summary.seconds = clock.seconds();
+    return summary;
+}
+
 }  // namespace
 
 std::size_t default_memory_budget() {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
     const std::size_t physical = pages > 0 && page > 0 ? std::size_t(pages) * std::size_t(page) : 0;
     return std::max<std::size_t>(physical / 4, std::size_t{256} << 20);
+}
+
+bool lossy_reads_whole(const Volume& header, std::size_t memory_bytes) {
+    // What write_lossy_container holds at its peak, about: the volume and its
+    // two quantized copies, a model's float bounds and the encoded candidate.
+    const std::size_t points = std::size_t(header.dims.count());
+    const std::size_t whole = 4 * points * value_size(header.type) + 4 * points;
+    return whole <= (memory_bytes ? memory_bytes : default_memory_budget());
 }
 
 tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOptions& o) {
@@ -168,24 +275,19 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
+    const double max_error = o.mt ? 0.0 : stored_max_error(source.header().type, o.max_error);
+    if (max_error > 0 && !lossy_reads_whole(source.header(), o.memory_bytes))
+        return write_lossy_streaming(source, path, o, max_error, Stopwatch());
     if (o.mt || o.max_error > 0) {
         // The MT is built from the whole volume, and the lossy field is chosen
-        // in the coder's order over the whole volume: read it, then the usual path.
+        // in the coder's order over the whole volume (when that fits the
+        // budget): read it, then the usual path.
         return write_container(read_all_planes(source), path, o);
     }
     Stopwatch clock;
-    HtStreamEncodeOptions so;
-    so.pad = o.pad;
-    so.encode = container_ht_encode_options(o);
-    so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
-    so.errors = o.ht_errors;
-    if (o.progress)
-        so.progress = [&](const char* stage, uint64_t done, uint64_t total) {
-            o.progress(std::string(stage) + " HT", std::size_t(done), std::size_t(total));
-        };
     // The value range is filled in by the encoder's first pass.
     const tlod::Metadata meta = container_metadata(source.header(), o);
-    const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, so);
+    const HtStreamEncodeSummary s = write_ht_container_streaming(source, meta, path, stream_options(o));
     if (o.progress) o.progress("encoded HT", 0, 0);
     ContainerWriteSummary summary;
     summary.ht_k = s.domain.k;

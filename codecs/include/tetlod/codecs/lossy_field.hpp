@@ -26,6 +26,11 @@ void quantize_samples(ValueType type, std::byte* data, std::size_t count, double
 /// quantize_samples over a whole volume, in place.
 void quantize_volume(Volume& volume, double max_error);
 
+/// `source`'s planes with quantize_samples applied as they are read (the
+/// lattice field of a bounded-memory lossy conversion); `source` must outlive
+/// the result.
+std::unique_ptr<VolumePlanes> quantized_planes(VolumePlanes& source, double max_error);
+
 /// The bound a lossy container of this type states for a requested E: floats
 /// E, integers floor(E) (what their quantizers honour); 0 means lossless.
 double stored_max_error(ValueType type, double max_error);
