@@ -76,6 +76,10 @@ struct ContainerWriteOptions {
     /// volumes honour (and state) floor(max_error); below 1 they stay lossless.
     /// The volume is read whole (the lossy field is chosen in the coder's order).
     double max_error = 0;
+    /// The section table's layout: compact (format 3.2, spec §4.4, the
+    /// smallest) or full (48-byte entries: a 3.0 file, 3.1 when lossy, that
+    /// readers older than 3.2 read). The sections' bytes are the same.
+    tlod::TableLayout table = tlod::TableLayout::compact;
 };
 
 struct ContainerWriteSummary {
