@@ -272,8 +272,11 @@ TEST(CompactTable, EverySingleBitFlipOfTheTableIsCaughtOrConsistent) {
         for (int b = 0; b < 8; ++b) {
             auto g = f;
             g[i] ^= std::byte(uint8_t(1u << b));
-            // As stored: the table checksum catches it.
-            EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::ChecksumMismatch) << i << ":" << b;
+            // As stored: the table checksum catches it (a frame size past the
+            // end of the file is refused before, as CorruptData).
+            const ErrorCode stored = ContainerReader::from_memory(g).failure().code;
+            EXPECT_TRUE(stored == ErrorCode::ChecksumMismatch || (i < 68 && stored == ErrorCode::CorruptData))
+                << i << ":" << b;
             // Resealed (what a fuzzing build sees): refused cleanly, or a table
             // whose sections tile the file exactly. A flip in the frame size
             // moves the table's end (past the file: refused before the checksum).
