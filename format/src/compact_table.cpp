@@ -64,6 +64,7 @@ public:
     }
     bool at_end() const { return pos_ == b_.size(); }
     const std::string& error() const { return error_; }
+    std::size_t entry = 0;  // the entry being read, for messages
 
 private:
     uint64_t bad(const char* field, const char* what) {
@@ -74,9 +75,6 @@ private:
     std::span<const std::byte> b_;
     std::size_t pos_ = 0;
     std::string error_;
-
-public:
-    std::size_t entry = 0;  // for messages
 };
 
 }  // namespace
@@ -86,8 +84,14 @@ std::vector<std::byte> encode(std::span<const SectionInfo> sections) {
     uint32_t prev0 = 0, prev1 = 0;
     for (const SectionInfo& s : sections) put_varint(content, s.type);
     for (const SectionInfo& s : sections) put_varint(content, s.flags);
-    for (const SectionInfo& s : sections) put_varint(content, zigzag_delta(s.arg0, prev0)), prev0 = s.arg0;
-    for (const SectionInfo& s : sections) put_varint(content, zigzag_delta(s.arg1, prev1)), prev1 = s.arg1;
+    for (const SectionInfo& s : sections) {
+        put_varint(content, zigzag_delta(s.arg0, prev0));
+        prev0 = s.arg0;
+    }
+    for (const SectionInfo& s : sections) {
+        put_varint(content, zigzag_delta(s.arg1, prev1));
+        prev1 = s.arg1;
+    }
     for (const SectionInfo& s : sections) put_varint(content, s.stored_size);
     // Stored bytes are the raw bytes unless they are a zstd frame.
     for (const SectionInfo& s : sections)
