@@ -1,4 +1,5 @@
-// libFuzzer target: the .tlod reader on arbitrary bytes (header, table,
+// libFuzzer target: the .tlod reader on arbitrary bytes (header, table: full
+// or compact (format 3.2, its zstd frame decoded: fuzzing builds skip checksums),
 // metadata, HT layout, full decode, MT sections and an MT extraction). Must never
 // crash, hang or read out of bounds.
 #include <cstddef>

@@ -1,7 +1,11 @@
 // Writes the seed corpora of the fuzz targets (fuzz/corpus/<target>/), small
 // valid inputs in each target's input format. Run after a format change:
 //   build/fuzz/fuzz_make_corpus fuzz/corpus
-// The container reader's seeds (corpus/reader) are the spec's test vectors.
+// The container reader's seeds (corpus/reader) are the spec's test vectors, plus (format
+// 3.2, compact table) an HT+MT and a lossy file written by `tetlod convert` from
+// the vectors' raw volumes (SOURCE_DATE_EPOCH=0): ht_mt_v3.2_u8_9x6x5_compact from
+// ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
+// ht_v3_i16_17x17x17_samples.raw --max-error 1%.
 #include <zlib.h>
 
 #include <cstdio>

@@ -32,6 +32,7 @@ struct ConvertArgs {
     std::string max_error;  // empty: lossless
     std::string memory;  // empty: default_memory_budget()
     bool in_memory = false;
+    std::string table = "compact";
 };
 
 int run_convert(const ConvertArgs& a) {
@@ -109,6 +110,7 @@ int run_convert(const ConvertArgs& a) {
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
+    wo.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
     if (max_error && max_error->value > 0) {
         // Percent of the original's range: one more read when streaming.
         const std::array<double, 2> range =
@@ -202,6 +204,12 @@ const CommandRegistration registration{Command{
                        "stated against the original. 0: lossless (default). HT only")
             ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
+        sub.add_option("--table", a->table,
+                       "Section table layout: compact (format 3.2, smallest) or full (48 bytes a section: "
+                       "a 3.0/3.1 file that older tetlod readers open; the same sections)")
+            ->capture_default_str()
+            ->check(CLI::IsMember({"compact", "full"}))
+            ->group(g);
         sub.add_option("--level", a->level, "zstd level of every section")
             ->capture_default_str()
             ->check(CLI::Range(1, 22))
@@ -226,6 +234,7 @@ const CommandRegistration registration{Command{
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip.tlod --model ht,mt\n"
                    "  tetlod convert neghip_64x64x64_uint8.raw neghip_lossy.tlod --max-error 0.5%\n"
+                   "  tetlod convert neghip_64x64x64_uint8.raw neghip_old.tlod --table full\n"
                    "  tetlod convert ct.raw ct.tlod --dims 512,512,300 --dtype i16 --meta patient=anon");
         return [a] { return run_convert(*a); };
     }}};

@@ -31,6 +31,11 @@ int run_info(const InfoArgs& a) {
     const double n = double(md.dims.count());
     const uint64_t ht_bytes = lay ? lay->section_bytes : 0, mt_bytes = mlay ? mlay->section_bytes : 0;
     auto key = [&](const char* k) { return info.format_key(k); };
+    // Header and table end where the first section starts (spec §3), whatever the layout.
+    const uint64_t framing = secs.empty() ? h.file_size : secs.front().offset;
+    const char* table_layout = tlod::table_layout_name((h.required_features & tlod::kFeatureCompactTable)
+                                                           ? tlod::TableLayout::compact
+                                                           : tlod::TableLayout::full);
 
     if (a.json) {
         nlohmann::json j;
@@ -106,7 +111,10 @@ int run_info(const InfoArgs& a) {
         // Format 3.0: one row per chunk mode of each section kind, with its bytes.
         for (std::size_t i = 0; i < info.coders.size(); ++i)
             if (!info.coders[i].mode.empty()) j["coders"][i]["mode"] = info.coders[i].mode;
-        j["framing_bytes"] = tlod::kHeaderSize + uint64_t{tlod::kTableEntrySize} * secs.size();
+        j["framing_bytes"] = framing;
+        // Format 3.2: the section table's layout and its bytes (framing less the header).
+        j["table_layout"] = table_layout;
+        j["table_bytes"] = framing - tlod::kHeaderSize;
         j["bytes_read"] = info.bytes_read;
         // User metadata values are arbitrary bytes (spec): never fail on them.
         out() << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
@@ -174,8 +182,8 @@ int run_info(const InfoArgs& a) {
                       (unsigned long long)c.raw_bytes, 100.0 * double(c.stored_bytes) / double(h.file_size));
         o << line;
     }
-    const uint64_t framing = tlod::kHeaderSize + uint64_t{tlod::kTableEntrySize} * secs.size();
-    o << "  header+table  " << framing << " bytes\n";
+    o << "  header+table  " << framing << " bytes (" << table_layout << " section table, "
+      << framing - tlod::kHeaderSize << " bytes for " << secs.size() << " sections)\n";
     if (a.sections) {
         o << "  section  type          flags      offset     stored        raw  arg0  arg1  coder\n";
         for (std::size_t i = 0; i < secs.size(); ++i) {

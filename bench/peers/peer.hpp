@@ -55,6 +55,10 @@ PeerResult run_zfp_accuracy(const Volume& v, double tolerance, double min_second
 /// where its bytes went (tetlod::inspect_container's section coders).
 struct TlodResult : PeerResult {
     uint64_t field_bytes = 0, error_bytes = 0, other_bytes = 0;  // other: metadata, headers, table
+    /// Format 3.2 (spec §4.4): the compact table written, the 48-byte entries
+    /// it replaced (the same file with --table full is bytes - table + full_table),
+    /// and the sections holding bytes (each keeps an 8-byte checksum).
+    uint64_t table_bytes = 0, full_table_bytes = 0, nonempty_sections = 0;
 };
 TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seconds);
 /// The lossy .tlod (format 3.1, write_container with max_error): bytes, and

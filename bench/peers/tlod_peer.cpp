@@ -35,10 +35,14 @@ TlodResult run(const Volume& v, const std::string& tmp_dir, double min_seconds, 
         },
         min_seconds);
     r.bytes = std::filesystem::file_size(path);
-    for (const auto& c : inspect_container(path).take().coders) {
+    const ContainerInfo info = inspect_container(path).take();
+    for (const auto& c : info.coders) {
         if (c.type == tlod::kSectionHtField) r.field_bytes += c.stored_bytes;
         else if (c.type == tlod::kSectionHtErrors) r.error_bytes += c.stored_bytes;
     }
+    r.table_bytes = (info.sections.empty() ? r.bytes : info.sections.front().offset) - tlod::kHeaderSize;
+    r.full_table_bytes = uint64_t{tlod::kTableEntrySize} * info.sections.size();
+    for (const auto& s : info.sections) r.nonempty_sections += s.stored_size > 0;
     r.other_bytes = r.bytes - r.field_bytes - r.error_bytes;
     Volume back;
     const double dec = seconds_per_call([&] { back = decode_container(path).take(); }, min_seconds);

@@ -12,6 +12,7 @@
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/core/regular_file.hpp"
 #include "tetlod/format/byte_io.hpp"
+#include "compact_table.hpp"
 
 namespace tetlod::tlod {
 
@@ -24,6 +25,10 @@ constexpr bool kCheckChecksums = false;
 constexpr bool kCheckChecksums = true;
 #endif
 }  // namespace
+
+const char* table_layout_name(TableLayout layout) {
+    return layout == TableLayout::compact ? "compact" : "full";
+}
 
 bool is_known_section_type(uint32_t type) {
     return type >= kSectionMetadata && type <= kSectionMtStructure;
@@ -85,6 +90,76 @@ bool plausible_raw_size(const SectionInfo& s) {
     if (!(s.flags & kSectionZstd)) return s.raw_size == s.stored_size;
     if (s.stored_size > (uint64_t{1} << 47)) return true;
     return s.raw_size <= s.stored_size * 32768 + 131072;
+}
+
+struct TableEntries {
+    std::vector<SectionInfo> entries;  // in file order
+    uint64_t end = 0;                  // where the first section starts
+};
+
+// Spec §4.2: Section_Count entries of 48 bytes after the header.
+Expected<TableEntries> read_full_table(ByteSource& src, const Header& h, uint64_t table_checksum,
+                                       const std::string& where) {
+    const uint64_t table_end = uint64_t{kHeaderSize} + uint64_t{h.section_count} * kTableEntrySize;
+    if (table_end > h.file_size)
+        return fail(ErrorCode::CorruptData, where + "the section table (" +
+                                                std::to_string(h.section_count) +
+                                                " entries) extends past the end of the file");
+    std::vector<std::byte> table(static_cast<std::size_t>(table_end - kHeaderSize));
+    if (!src.read_at(kHeaderSize, table.data(), table.size())) return fail(ErrorCode::IoError, where + "read failed");
+    if (kCheckChecksums && checksum64(table) != table_checksum)
+        return fail(ErrorCode::ChecksumMismatch, where + "section table checksum mismatch");
+    TableEntries out;
+    out.end = table_end;
+    out.entries.resize(h.section_count);
+    ByteReader t(table);
+    for (SectionInfo& s : out.entries) {
+        s.type = t.u32();
+        s.flags = t.u32();
+        s.offset = t.u64();
+        s.stored_size = t.u64();
+        s.raw_size = t.u64();
+        s.arg0 = t.u32();
+        s.arg1 = t.u32();
+        s.checksum = t.u64();
+    }
+    return out;
+}
+
+// Spec §4.4: Table_Frame_Size, then one zstd frame of the entries. Every size
+// is checked against the file before the frame is read or decompressed.
+Expected<TableEntries> read_compact_table(ByteSource& src, const Header& h, uint64_t table_checksum,
+                                          const std::string& where) {
+    if (h.version_major != kVersion3_0_Major)
+        return fail(ErrorCode::CorruptData, where + "a compact section table in a file of major version " +
+                                                std::to_string(h.version_major));
+    // No valid file describes more sections than it has bytes (an empty
+    // section still costs its entry): refused before anything is decompressed.
+    if (h.section_count > h.file_size)
+        return fail(ErrorCode::CorruptData, where + std::to_string(h.section_count) +
+                                                " sections claimed by a file of " + std::to_string(h.file_size) +
+                                                " bytes");
+    const uint64_t frame_at = uint64_t{kHeaderSize} + compact_table::kFrameSizeBytes;
+    if (frame_at > h.file_size)
+        return fail(ErrorCode::CorruptData, where + "the section table extends past the end of the file");
+    std::vector<std::byte> region(compact_table::kFrameSizeBytes);
+    if (!src.read_at(kHeaderSize, region.data(), region.size())) return fail(ErrorCode::IoError, where + "read failed");
+    const uint64_t frame_size = load_le(region.data(), 4);
+    if (frame_size > h.file_size - frame_at)
+        return fail(ErrorCode::CorruptData, where + "the compact section table (" + std::to_string(frame_size) +
+                                                " bytes) extends past the end of the file");
+    region.resize(static_cast<std::size_t>(compact_table::kFrameSizeBytes + frame_size));
+    if (!src.read_at(frame_at, region.data() + compact_table::kFrameSizeBytes, static_cast<std::size_t>(frame_size)))
+        return fail(ErrorCode::IoError, where + "read failed");
+    if (kCheckChecksums && checksum64(region) != table_checksum)
+        return fail(ErrorCode::ChecksumMismatch, where + "section table checksum mismatch");
+    auto entries = compact_table::decode(std::span<const std::byte>(region).subspan(compact_table::kFrameSizeBytes),
+                                         h.section_count);
+    if (!entries) return with_context(where, entries.failure());
+    TableEntries out;
+    out.entries = std::move(*entries);
+    out.end = frame_at + frame_size;
+    return out;
 }
 
 }  // namespace
@@ -161,31 +236,19 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
     if (size > h.file_size)
         return fail(ErrorCode::CorruptData, where + std::to_string(size - h.file_size) +
                                                 " trailing bytes after the declared end of the file");
-    const uint64_t table_end = uint64_t{kHeaderSize} + uint64_t{h.section_count} * kTableEntrySize;
-    if (table_end > h.file_size)
-        return fail(ErrorCode::CorruptData, where + "the section table (" +
-                                                std::to_string(h.section_count) +
-                                                " entries) extends past the end of the file");
-    std::vector<std::byte> table(static_cast<std::size_t>(table_end - kHeaderSize));
-    if (!src->read_at(kHeaderSize, table.data(), table.size()))
-        return fail(ErrorCode::IoError, where + "read failed");
-    if (kCheckChecksums && checksum64(table) != table_checksum)
-        return fail(ErrorCode::ChecksumMismatch, where + "section table checksum mismatch");
+    auto table = (h.required_features & kFeatureCompactTable)
+                     ? read_compact_table(*src, h, table_checksum, where)
+                     : read_full_table(*src, h, table_checksum, where);
+    if (!table) return table.failure();
+    const uint64_t table_end = table->end;
 
     ContainerReader out;
     out.sections_.reserve(h.section_count);
-    ByteReader t(table);
     uint64_t expected_offset = table_end;
     for (uint32_t i = 0; i < h.section_count; ++i) {
-        SectionInfo s;
-        s.type = t.u32();
-        s.flags = t.u32();
-        s.offset = t.u64();
-        s.stored_size = t.u64();
-        s.raw_size = t.u64();
-        s.arg0 = t.u32();
-        s.arg1 = t.u32();
-        s.checksum = t.u64();
+        SectionInfo s = table->entries[i];
+        // The compact table has no offsets: each section starts where the previous ends.
+        if (h.required_features & kFeatureCompactTable) s.offset = expected_offset;
         const std::string sec = where + "section " + std::to_string(i) + " (" +
                                 section_type_name(s.type) + "): ";
         // The chunk-mode bits exist only on HT chunk sections of 3.0 files;
@@ -215,6 +278,7 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
     out.name_ = std::move(name);
     out.src_ = std::move(src);
     out.bytes_read_ = table_end;
+    out.table_bytes_ = table_end - kHeaderSize;
     return out;
 }
 
@@ -264,6 +328,7 @@ void ContainerWriter::add_stored(uint32_t type, uint32_t flags, uint32_t arg0, u
     s.checksum = checksum64(stored);
     sections_.push_back(s);
     payloads_.push_back(Payload{std::move(stored), nullptr, 0});
+    table_cached_ = false;
 }
 
 namespace {
@@ -288,6 +353,7 @@ void ContainerWriter::add_spilled(uint32_t type, uint32_t flags, uint32_t arg0, 
                                   uint64_t offset, uint64_t stored_size, uint64_t raw_size, uint64_t checksum) {
     sections_.push_back(section_entry(type, flags, arg0, arg1, stored_size, raw_size, checksum));
     payloads_.push_back(Payload{{}, &spill, offset});
+    table_cached_ = false;
 }
 
 void ContainerWriter::add(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
@@ -301,12 +367,43 @@ void ContainerWriter::add_external(uint32_t type, uint32_t flags, uint32_t arg0,
     Payload p;
     p.external = true;
     payloads_.push_back(std::move(p));
+    table_cached_ = false;
+}
+
+std::vector<std::byte> ContainerWriter::table_bytes() const {
+    if (table_cached_) return table_cache_;
+    std::vector<std::byte> table;
+    if (table_ == TableLayout::compact) {
+        table = compact_table::encode(sections_);
+    } else {
+        uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+        table.reserve(kTableEntrySize * sections_.size());
+        for (const SectionInfo& s : sections_) {
+            put_u32(table, s.type);
+            put_u32(table, s.flags);
+            put_u64(table, offset);
+            put_u64(table, s.stored_size);
+            put_u64(table, s.raw_size);
+            put_u32(table, s.arg0);
+            put_u32(table, s.arg1);
+            put_u64(table, s.checksum);
+            offset += s.stored_size;
+        }
+    }
+    table_cache_ = table;
+    table_cached_ = true;
+    return table;
+}
+
+uint64_t ContainerWriter::table_end() const {
+    if (table_ == TableLayout::full) return uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    return uint64_t{kHeaderSize} + table_bytes().size();
 }
 
 std::vector<uint64_t> ContainerWriter::section_offsets() const {
     std::vector<uint64_t> out;
     out.reserve(sections_.size());
-    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    uint64_t offset = table_end();
     for (const SectionInfo& s : sections_) {
         out.push_back(offset);
         offset += s.stored_size;
@@ -315,7 +412,7 @@ std::vector<uint64_t> ContainerWriter::section_offsets() const {
 }
 
 uint64_t ContainerWriter::file_size() const {
-    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
+    uint64_t offset = table_end();
     for (const SectionInfo& s : sections_) offset += s.stored_size;
     return offset;
 }
@@ -330,30 +427,26 @@ std::vector<std::byte> ContainerWriter::leading_bytes() const {
 }
 
 std::vector<std::byte> ContainerWriter::head_bytes() const {
-    uint64_t offset = uint64_t{kHeaderSize} + uint64_t{kTableEntrySize} * sections_.size();
-    std::vector<std::byte> table;
-    table.reserve(kTableEntrySize * sections_.size());
-    for (const SectionInfo& s : sections_) {
-        put_u32(table, s.type);
-        put_u32(table, s.flags);
-        put_u64(table, offset);
-        put_u64(table, s.stored_size);
-        put_u64(table, s.raw_size);
-        put_u32(table, s.arg0);
-        put_u32(table, s.arg1);
-        put_u64(table, s.checksum);
-        offset += s.stored_size;
-    }
+    const std::vector<std::byte> table = table_bytes();
+    const bool compact = table_ == TableLayout::compact;
+    const uint64_t required = header_.required_features | (compact ? kFeatureCompactTable : 0);
+    // A file says the oldest version that has every feature it uses: files
+    // with the full table stay 3.0 (3.1 when lossy), byte for byte.
+    const uint16_t minor = compact                                  ? kVersion3_2_Minor
+                           : (required & kFeatureLossy)             ? kVersion3_1_Minor
+                                                                    : kVersion3_0_Minor;
     std::vector<std::byte> h;
     h.reserve(kHeaderSize + table.size());
     for (unsigned char c : kMagic) put_u8(h, c);
-    put_u16(h, header_.version_major);
-    put_u16(h, header_.version_minor);
+    put_u16(h, kVersion3_0_Major);
+    put_u16(h, minor);
     put_u32(h, kHeaderSize);
-    put_u64(h, header_.required_features);
+    put_u64(h, required);
     put_u64(h, header_.optional_features);
-    put_u64(h, offset);  // file size
+    put_u64(h, file_size());
     put_u32(h, static_cast<uint32_t>(sections_.size()));
+    // 48 in both layouts: a 3.0/3.1 reader checks it before Required_Features
+    // and must get as far as refusing the unknown COMPACT_TABLE bit (spec §4.1).
     put_u32(h, kTableEntrySize);
     put_u64(h, checksum64(table));
     put_u64(h, checksum64(h));

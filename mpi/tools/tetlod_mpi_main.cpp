@@ -43,6 +43,7 @@ struct Args {
     std::vector<std::string> meta;
     int level = 19, brick_log2 = 4, error_bits = 4;
     std::string memory, axis_order;
+    std::string table = "compact";  // convert: section table layout
     // extract
     std::string error, error_out, box, format, compress = "zlib";
     int compress_level = 0;
@@ -205,6 +206,7 @@ int run(const Args& a, int rank, int size) {
     o.write.zstd_level = a.level;
     o.write.brick_log2 = a.brick_log2;
     o.write.error_bits = a.error_bits;
+    o.write.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
     o.write.memory_bytes = default_memory_budget();
     if (!a.memory.empty()) {
         std::string why;
@@ -273,6 +275,9 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     convert->add_option("--brick-log2", a.brick_log2, "Bricks of cycle t span 2^(t+1+N) grid steps")
         ->capture_default_str()
         ->check(CLI::Range(1, 16));
+    convert->add_option("--table", a.table, "Section table layout: compact (format 3.2) or full (a 3.0 file for older readers)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"compact", "full"}));
     convert->add_option("--error-bits", a.error_bits, "Mantissa bits of stored error bounds")
         ->capture_default_str()
         ->check(CLI::Range(0, 7));

@@ -98,7 +98,7 @@ TEST(Lossy, EveryTypeRoundTripsWithinE) {
                 EXPECT_TRUE(info.max_error == stated || info.max_error == 0) << info.max_error;
                 EXPECT_EQ(beyond(v, d, info.max_error), 0);  // 0: bit-exact values
                 EXPECT_EQ(info.header.version_major, 3);
-                EXPECT_EQ(info.header.version_minor, info.max_error > 0 ? 1 : 0);
+                EXPECT_EQ(info.header.version_minor, 2);  // the compact table (3.2), lossy or not
                 EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, info.max_error > 0);
                 if (field == test::Field::Smooth && stated >= double(range_of(v)) / 100)
                     EXPECT_GT(info.max_error, 0);  // a smooth field at 1%: the lossy file wins
@@ -144,8 +144,14 @@ TEST(Lossy, ZeroIsLosslessByteForByte) {
     EXPECT_EQ(file_bytes(a), file_bytes(b));
     const ContainerInfo info = inspect_container(a).take();
     EXPECT_EQ(info.max_error, 0);
-    EXPECT_EQ(info.header.version_minor, 0);
+    EXPECT_EQ(info.header.version_minor, 2);  // the compact table
     EXPECT_FALSE(info.header.required_features & tlod::kFeatureLossy);
+    // With the full table: the 3.0 file, as before format 3.1 and 3.2.
+    ContainerWriteOptions full = lossy(0);
+    full.table = tlod::TableLayout::full;
+    const std::string c = tmp("zero_c.tlod");
+    write_container(Volume(v), c, full);
+    EXPECT_EQ(inspect_container(c).take().header.version_minor, 0);
     const Volume d = decode_container(a).take();
     EXPECT_TRUE(std::equal(d.data.begin(), d.data.end(), v.data.begin(), v.data.end()));
 }

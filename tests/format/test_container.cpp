@@ -20,7 +20,10 @@ using namespace tetlod::tlod;
 
 namespace {
 
-std::vector<std::byte> small_file(ValueType t = ValueType::U8, Dims d = {9, 6, 5}, bool pad = false) {
+// The full table by default: the hostile-header tests below patch its 48-byte
+// entries in place (the compact table has its own, test_compact_table.cpp).
+std::vector<std::byte> small_file(ValueType t = ValueType::U8, Dims d = {9, 6, 5}, bool pad = false,
+                                  TableLayout layout = TableLayout::full) {
     Volume v = tlodtest::make_volume(d, t, 7);
     v.metadata["user.note"] = "hello";
     Metadata meta = metadata_for_volume(v);
@@ -31,6 +34,7 @@ std::vector<std::byte> small_file(ValueType t = ValueType::U8, Dims d = {9, 6, 5
     ContainerWriter w;
     HtEncodeOptions eo;
     eo.zstd_level = 3;
+    eo.table = layout;
     encode_ht(m, meta, w, eo);
     return w.finish();
 }
@@ -189,28 +193,36 @@ TEST(Metadata, RoundTripAndValidation) {
 }
 
 TEST(Robustness, EveryPrefixFailsCleanly) {
-    auto f = small_file();
-    for (std::size_t n = 0; n < f.size(); ++n) {
-        auto r = decode_bytes(std::span<const std::byte>(f.data(), n));
-        ASSERT_FALSE(r.ok()) << n;
-        EXPECT_EQ(r.failure().code, ErrorCode::Truncated) << n << ": " << r.failure().message;
+    for (TableLayout layout : {TableLayout::full, TableLayout::compact}) {
+        auto f = small_file(ValueType::U8, {9, 6, 5}, false, layout);
+        for (std::size_t n = 0; n < f.size(); ++n) {
+            auto r = decode_bytes(std::span<const std::byte>(f.data(), n));
+            ASSERT_FALSE(r.ok()) << n;
+            EXPECT_EQ(r.failure().code, ErrorCode::Truncated) << n << ": " << r.failure().message;
+        }
+        ASSERT_TRUE(decode_bytes(f).ok());
     }
-    ASSERT_TRUE(decode_bytes(f).ok());
 }
 
 TEST(Robustness, EverySingleBitFlipIsDetected) {
-    auto f = small_file(ValueType::I16);
-    for (std::size_t i = 0; i < f.size(); ++i)
-        for (int b = 0; b < 8; ++b) {
-            auto g = f;
-            g[i] ^= std::byte(1u << b);
-            auto r = decode_all(g);
-            ASSERT_FALSE(r.ok()) << "byte " << i << " bit " << b;
-            const ErrorCode c = r.failure().code;
-            ASSERT_TRUE(c == ErrorCode::ChecksumMismatch || c == ErrorCode::BadMagic ||
-                        (i >= 32 && i < 40))  // file_size field: Truncated / trailing bytes
-                << "byte " << i << " bit " << b << ": " << r.failure().message;
-        }
+    for (TableLayout layout : {TableLayout::full, TableLayout::compact}) {
+        auto f = small_file(ValueType::I16, {9, 6, 5}, false, layout);
+        for (std::size_t i = 0; i < f.size(); ++i)
+            for (int b = 0; b < 8; ++b) {
+                auto g = f;
+                g[i] ^= std::byte(1u << b);
+                auto r = decode_all(g);
+                ASSERT_FALSE(r.ok()) << "byte " << i << " bit " << b;
+                const ErrorCode c = r.failure().code;
+                // The file_size field: Truncated / trailing bytes. The compact
+                // table's frame size (bytes 64-67) is checked against the file
+                // before the table checksum: past the end, CorruptData.
+                const bool size_field = (i >= 32 && i < 40) || (layout == TableLayout::compact && i >= 64 && i < 68);
+                ASSERT_TRUE(c == ErrorCode::ChecksumMismatch || c == ErrorCode::BadMagic ||
+                            (size_field && c == ErrorCode::CorruptData) || (i >= 32 && i < 40))
+                    << "byte " << i << " bit " << b << ": " << r.failure().message;
+            }
+    }
 }
 
 TEST(Robustness, TrailingBytesRefused) {
@@ -254,7 +266,7 @@ TEST(Robustness, HostileHeaders) {
     }
     {  // unknown required feature
         auto g = f;
-        store_le(g.data() + 16, 0x9, 8);  // bit 3: not defined (bit 2 is LOSSY since 3.1)
+        store_le(g.data() + 16, 0x11, 8);  // bit 4: not defined (bit 2 is LOSSY since 3.1, bit 3 COMPACT_TABLE since 3.2)
         reseal_header(g);
         EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedFeature);
     }

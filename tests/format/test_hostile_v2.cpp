@@ -43,6 +43,7 @@ std::vector<std::byte> claim_cube(int k, std::size_t section_bytes, uint32_t fie
     h.k = uint8_t(k);
     for (auto& b : h.box) b = uint32_t(n - 1);
     ContainerWriter w;
+    w.set_table(TableLayout::full);  // patched through its 48-byte entries
     w.set_features(kFeatureHt);
     w.add(kSectionMetadata, kSectionCritical, 0, 0, serialize_metadata(m), 1);
     const auto hh = ht_header(h);
@@ -80,6 +81,7 @@ std::vector<std::byte> small_v2(ValueType t = ValueType::U8) {
     ContainerWriter w;
     HtEncodeOptions o;
     o.chunk_mode = 0;  // range mode wherever possible: these tests are about its rules
+    o.table = TableLayout::full;  // the tests patch sections through the 48-byte entries
     encode_ht(m, metadata_for_volume(v), w, o);
     return w.finish();
 }

@@ -107,14 +107,14 @@ TEST(MtContainer, RoundTripWithHtAndAlone) {
         // Features: optional next to an HT, required alone; the HT still decodes.
         auto rb = ContainerReader::from_memory(f.both);
         ASSERT_TRUE(rb.ok());
-        EXPECT_EQ(rb->header().required_features, kFeatureHt);
+        EXPECT_EQ(rb->header().required_features, kFeatureHt | kFeatureCompactTable);  // 3.2 table by default
         EXPECT_EQ(rb->header().optional_features, kFeatureMt);
         auto v = decode_volume(*rb);
         ASSERT_TRUE(v.ok()) << v.failure().message;
         EXPECT_TRUE(v->data == f.vol.data);
         auto ro = ContainerReader::from_memory(f.mt_only);
         ASSERT_TRUE(ro.ok());
-        EXPECT_EQ(ro->header().required_features, kFeatureMt);
+        EXPECT_EQ(ro->header().required_features, kFeatureMt | kFeatureCompactTable);
         EXPECT_EQ(read_ht_layout(*ro).failure().code, ErrorCode::NotFound);
         // An HT-only file has no MT.
         ContainerWriter w;

@@ -40,6 +40,9 @@ struct Vector {
     /// mode (-1: the encoder's choice), so that every mode occurs in a vector.
     enum Shape { Noisy, Sparse, Linear, Constant } shape = Noisy;
     int mode = -1;
+    /// Format 3.2: the vector's section table is the compact one (spec §4.4);
+    /// the 3.0 vectors keep the full table, as they were written.
+    bool compact = false;
 };
 
 // Named by model and format version.
@@ -57,6 +60,8 @@ const Vector kVectors[] = {
     {"ht_v3_u8_33x20x9_sparse", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse},
     {"ht_v3_u16_17x9x9_linear", {17, 9, 9}, ValueType::U16, false, true, Vector::Linear, 3},
     {"ht_v3_u8_9x9x5_constant", {9, 9, 5}, ValueType::U8, false, true, Vector::Constant, 1},
+    {"ht_v3.2_u8_33x20x9_sparse_compact", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse, -1, true},
+    {"ht_v3.2_i16_17x17x17_compact", {17, 17, 17}, ValueType::I16, false, true, Vector::Noisy, -1, true},
 };
 
 /// The vector's volume: the noisy test volume, or a sparse blob on zeros, or
@@ -103,7 +108,7 @@ std::vector<char> slurp(const std::string& p) {
 std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m, const nlohmann::json& modes) {
     std::ostringstream o;
     o.precision(17);
-    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.current ? "3.0" : "1.0") << "\",\n"
+    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (!v.current ? "1.0" : v.compact ? "3.2" : "3.0") << "\",\n"
       << "  \"dims\": [" << m.dims.x << ", " << m.dims.y << ", " << m.dims.z << "],\n"
       << "  \"value_type\": \"" << value_type_name(m.type) << "\",\n"
       << "  \"spacing\": [" << m.spacing[0] << ", " << m.spacing[1] << ", " << m.spacing[2] << "],\n"
@@ -129,6 +134,81 @@ std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metada
     return o.str();
 }
 
+/// A table entry as the independent reading below sees it.
+struct Entry {
+    uint64_t type, flags, off, stored, raw, checksum;
+    uint64_t arg0 = 0, arg1 = 0;
+};
+
+uint64_t le_at(const unsigned char* p, int n) {
+    uint64_t x = 0;
+    for (int i = 0; i < n; ++i) x |= uint64_t(p[i]) << (8 * i);
+    return x;
+}
+
+/// Spec §4.2: Section_Count entries of 48 bytes at offset 64, checked against the table checksum.
+std::vector<Entry> full_entries(const unsigned char* f, uint64_t n) {
+    EXPECT_EQ(le_at(f + 48, 8), XXH64(f + 64, n * 48, 0));  // table checksum
+    std::vector<Entry> out;
+    for (uint64_t i = 0; i < n; ++i) {
+        const unsigned char* e = f + 64 + 48 * i;
+        out.push_back({le_at(e, 4), le_at(e + 4, 4), le_at(e + 8, 8), le_at(e + 16, 8), le_at(e + 24, 8),
+                       le_at(e + 40, 8), le_at(e + 32, 4), le_at(e + 36, 4)});
+    }
+    return out;
+}
+
+/// Spec §4.4, read from the spec alone: a u32 frame size at offset 64, the
+/// frame, its content seven columns of LEB128 varints / u64 checksums, the
+/// offsets the running sum of the stored sizes after the table.
+std::vector<Entry> compact_entries(const unsigned char* f, uint64_t file_size, uint64_t n) {
+    const uint64_t frame_size = le_at(f + 64, 4);
+    EXPECT_LE(68 + frame_size, file_size);
+    EXPECT_EQ(le_at(f + 48, 8), XXH64(f + 64, 4 + frame_size, 0));  // table checksum: size field + frame
+    const unsigned long long content_size = ZSTD_getFrameContentSize(f + 68, frame_size);
+    EXPECT_LE(content_size, 48 * n);
+    std::vector<unsigned char> c(content_size);
+    EXPECT_EQ(ZSTD_decompress(c.data(), c.size(), f + 68, frame_size), content_size);
+    std::size_t pos = 0;
+    auto varint = [&] {
+        uint64_t v = 0;
+        for (int shift = 0; pos < c.size(); shift += 7) {
+            const unsigned char b = c[pos++];
+            v |= uint64_t(b & 0x7f) << shift;
+            if (!(b & 0x80)) return v;
+        }
+        ADD_FAILURE() << "table content ends inside a varint";
+        return v;
+    };
+    auto delta = [&](uint64_t prev) {  // zigzag of the wrapping u32 difference
+        const uint32_t z = uint32_t(varint());
+        const int64_t d = (z & 1) ? -int64_t(z >> 1) - 1 : int64_t(z >> 1);
+        return uint64_t(uint32_t(int64_t(prev) + d));
+    };
+    std::vector<Entry> out(n);
+    for (auto& e : out) e.type = varint();
+    for (auto& e : out) e.flags = varint();
+    uint64_t a0 = 0, a1 = 0;
+    for (auto& e : out) e.arg0 = a0 = delta(a0);
+    for (auto& e : out) e.arg1 = a1 = delta(a1);
+    for (auto& e : out) e.stored = varint();
+    for (auto& e : out) e.raw = (e.flags & 1) ? varint() : e.stored;
+    for (auto& e : out) {
+        e.checksum = XXH64(nullptr, 0, 0);
+        if (e.stored > 0 && pos + 8 <= c.size()) {
+            e.checksum = le_at(c.data() + pos, 8);
+            pos += 8;
+        }
+    }
+    EXPECT_EQ(pos, c.size()) << "bytes after the last entry";
+    uint64_t off = 68 + frame_size;
+    for (auto& e : out) {
+        e.off = off;
+        off += e.stored;
+    }
+    return out;
+}
+
 }  // namespace
 
 TEST(TestVectors, DecodeToTheirStoredContents) {
@@ -151,6 +231,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
             HtEncodeOptions eo;
             eo.brick_log2 = 1;  // several bricks per cycle even at this size
             eo.chunk_mode = v.mode;
+            eo.table = v.compact ? tlod::TableLayout::compact : tlod::TableLayout::full;
             write_ht_container(base + ".tlod", m, meta, eo);
             write_file_atomic(base + ".raw", vol.data.data(), vol.data.size());
             auto r = tlod::ContainerReader::open(base + ".tlod");
@@ -216,17 +297,24 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
         const uint64_t nsec = le(40, 4);
         EXPECT_EQ(le(44, 4), 48u);
         EXPECT_EQ(le(56, 8), XXH64(f, 56, 0));                // header checksum
-        EXPECT_EQ(le(48, 8), XXH64(f + 64, nsec * 48, 0));   // table checksum
-        uint64_t next = 64 + nsec * 48;
+        const bool compact = (le(16, 8) >> 3) & 1;           // required feature COMPACT_TABLE (3.2)
+        EXPECT_EQ(compact, v.compact);
+        const std::vector<Entry> entries = compact ? compact_entries(f, fc.size(), nsec) : full_entries(f, nsec);
+        ASSERT_EQ(entries.size(), nsec);
+        uint64_t next = entries.empty() ? fc.size() : entries[0].off;
         std::vector<unsigned char> metadata;
         std::map<std::string, std::map<std::string, int>> modes;  // 3.0: from the flags' bits 8-11
         for (uint64_t i = 0; i < nsec; ++i) {
-            const std::size_t e = 64 + i * 48;
-            const uint64_t type = le(e, 4), flags = le(e + 4, 4), off = le(e + 8, 8), stored = le(e + 16, 8),
-                           raw = le(e + 24, 8);
+            const Entry& en = entries[i];
+            const uint64_t type = en.type, flags = en.flags, off = en.off, stored = en.stored, raw = en.raw;
             ASSERT_EQ(off, next) << "section " << i;
             ASSERT_LE(off + stored, fc.size());
-            EXPECT_EQ(le(e + 40, 8), XXH64(f + off, stored, 0)) << "section " << i;
+            EXPECT_EQ(en.checksum, XXH64(f + off, stored, 0)) << "section " << i;
+            if (type != 3 && type != 4) {
+                EXPECT_EQ(en.arg0 | en.arg1, 0u) << "section " << i;
+            } else if (i >= 3) {  // chunks in cycle order, coarse to fine (§6.3)
+                EXPECT_LE(en.arg0, entries[i - 1].arg0) << "section " << i;
+            }
             if (type == 1) {  // METADATA
                 metadata.resize(raw);
                 if (flags & 1)

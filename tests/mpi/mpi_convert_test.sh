@@ -46,6 +46,12 @@ awkward-u8)
     run_mpi 3 -q convert ms_u8.h5:/volume mpi3_pad.tlod --pad --brick-log2 2 --meta who=test || fail "mpi --pad"
     cmp serial_pad.tlod mpi3_pad.tlod || fail "--pad --brick-log2 2 --meta, -n 3 differs"
     echo "ok: --pad --brick-log2 2 --meta, -n 3: byte-identical"
+    # The full section table (a 3.0 file for older readers): the same bytes too.
+    "$tetlod" -q convert ms_u8.h5:/volume serial_full.tlod --table full --meta who=test || fail "serial --table full"
+    run_mpi 3 -q convert ms_u8.h5:/volume mpi3_full.tlod --table full --meta who=test || fail "mpi --table full"
+    cmp serial_full.tlod mpi3_full.tlod || fail "--table full, -n 3 differs"
+    "$tetlod" info serial_full.tlod | grep -q "full section table" || fail "--table full did not write the full table"
+    echo "ok: --table full, -n 3: byte-identical"
     # More ranks than planes: some ranks (rank 0 among them) hold no plane.
     make_h5 sphere 13,11,3 u8 thin
     "$tetlod" -q convert thin.h5:/volume serial_thin.tlod || fail "serial thin"

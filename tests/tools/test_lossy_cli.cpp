@@ -37,12 +37,19 @@ std::string bytes(const std::string& path) { return slurp(path); }
 
 TEST(LossyCli, PercentOfTheRangeShownByInfo) {
     const std::string raw = sample_raw();
-    const std::string path = converted(raw, "lossy_pct", "--max-error 2%");
+    // The full table (--table full): a 3.1 file; the default compact table: 3.2.
+    const std::string path = converted(raw, "lossy_pct", "--max-error 2% --table full");
     const CliRun j = run("info --json '" + path + "'");
     ASSERT_EQ(j.code, 0) << j.err;
     const auto info = nlohmann::json::parse(j.out);
     EXPECT_EQ(info["field_mode"], "lossy");
     EXPECT_EQ(info["format_version"], "3.1");
+    EXPECT_EQ(info["table_layout"], "full");
+    const auto compact = nlohmann::json::parse(run("info --json '" + converted(raw, "lossy_pct_c", "--max-error 2%") + "'").out);
+    EXPECT_EQ(compact["format_version"], "3.2");
+    EXPECT_EQ(compact["table_layout"], "compact");
+    EXPECT_LT(compact["table_bytes"].get<uint64_t>(), info["table_bytes"].get<uint64_t>());
+    EXPECT_EQ(info["table_bytes"].get<uint64_t>(), 48 * info["sections"].size());
     // 2% of the input's range, multiplied first as --error does: pct * (max - min) / 100.
     const std::string v = bytes(raw);
     int lo = 255, hi = 0;
@@ -56,7 +63,7 @@ TEST(LossyCli, PercentOfTheRangeShownByInfo) {
     ASSERT_EQ(t.code, 0) << t.err;
     EXPECT_TRUE(contains(t.out, "lossy: every sample within")) << t.out;
 
-    const CliRun plain = run("info --json '" + converted(raw, "lossless", "") + "'");
+    const CliRun plain = run("info --json '" + converted(raw, "lossless", "--table full") + "'");
     const auto pj = nlohmann::json::parse(plain.out);
     EXPECT_EQ(pj["field_mode"], "lossless");
     EXPECT_EQ(pj["max_error"].get<double>(), 0.0);
@@ -101,7 +108,7 @@ TEST(LossyCli, AbsoluteBoundDecodeAndVerify) {
 
 TEST(LossyCli, ZeroIsLosslessAndBadBoundsRefused) {
     const std::string raw = sample_raw();
-    const std::string a = converted(raw, "zero_a", "--max-error 0");
+    const std::string a = converted(raw, "zero_a", "--max-error 0 --table full");
     const std::string b = converted(raw, "zero_b", "");
     // The creation time differs between runs: compare the decoded fields and the version.
     const std::string da = tmp("zero_a.raw"), db = tmp("zero_b.raw");

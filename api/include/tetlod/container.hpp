@@ -78,6 +78,10 @@ struct ContainerWriteOptions {
     /// memory_bytes (the best of three fields is kept); otherwise the
     /// VolumePlanes overload streams two (lossless, lattice) and keeps the smaller.
     double max_error = 0;
+    /// The section table's layout: compact (format 3.2, spec §4.4, the
+    /// smallest) or full (48-byte entries: a 3.0 file, 3.1 when lossy, that
+    /// readers older than 3.2 read). The sections' bytes are the same.
+    tlod::TableLayout table = tlod::TableLayout::compact;
 };
 
 struct ContainerWriteSummary {

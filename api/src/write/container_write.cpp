@@ -93,6 +93,7 @@ HtEncodeOptions encode_options(const ContainerWriteOptions& o) {
     eo.zstd_level = o.zstd_level;
     eo.brick_log2 = o.brick_log2;
     eo.error_mantissa_bits = o.error_bits;
+    eo.table = o.table;
     if (o.progress)
         eo.progress = [&o](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
     return eo;
@@ -269,6 +270,7 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
     e.zstd_level = o.zstd_level;
     e.brick_log2 = o.brick_log2;
     e.error_mantissa_bits = o.error_bits;
+    e.table = o.table;
     return e;
 }
 
@@ -311,6 +313,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     const tlod::Metadata meta = with_provenance(tlod::metadata_for_volume(volume), o);
     ContainerWriteSummary summary;
     tlod::ContainerWriter w;
+    w.set_table(o.table);
     std::optional<MtModel> mt;
     if (o.mt) {
         MtBuildOptions mo;
@@ -332,6 +335,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         eo.zstd_level = o.zstd_level;
         eo.brick_log2 = o.brick_log2;
         eo.error_mantissa_bits = o.error_bits;
+        eo.table = o.table;
         if (o.progress)
             eo.progress = [&](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
         encode_ht(model, meta, w, eo);

@@ -85,6 +85,7 @@ inline void add_ht_leading_sections(tlod::ContainerWriter& w, const HtDomain& d,
                                     const ErrorSummary& errors, const HtEncodeOptions& o) {
     errors.write_to(md);
     w.set_features(ht_features(md, o));
+    w.set_table(o.table);
     w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md), o.zstd_level);
     const auto hh = ht_header_bytes(d, o.brick_log2, o.error_mantissa_bits);
     w.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());

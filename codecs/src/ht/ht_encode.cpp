@@ -31,6 +31,7 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
         summary.write_to(md);
     }
     writer.set_features(ht_features(md, o));
+    writer.set_table(o.table);
     writer.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(md),
                o.zstd_level);
     const auto hh = ht_header_bytes(d, o.brick_log2, m);

@@ -32,6 +32,9 @@ inline constexpr uint16_t kVersion3_0_Minor = 0;
 /// 3.1: error-bounded lossy HT field (required feature bit 2, METADATA key
 /// field.max_error). Written only by files that use it: lossless files stay 3.0.
 inline constexpr uint16_t kVersion3_1_Minor = 1;
+/// 3.2: the compact section table (required feature bit 3, spec §4.4), the
+/// default of every writer. Files written with the full table stay 3.0/3.1.
+inline constexpr uint16_t kVersion3_2_Minor = 2;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).
@@ -54,7 +57,18 @@ inline constexpr uint64_t kFeatureMt = uint64_t{1} << 1;
 /// the original (stored code + that bound). Required so that a 3.0 reader
 /// refuses the file instead of calling the stored field the original.
 inline constexpr uint64_t kFeatureLossy = uint64_t{1} << 2;
-inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt | kFeatureLossy;
+/// Required (3.2): the section table is the compact one (spec §4.4), not
+/// Section_Count fixed 48-byte entries. Required so that a 3.0/3.1 reader
+/// refuses the file instead of reading the compact table as entries.
+inline constexpr uint64_t kFeatureCompactTable = uint64_t{1} << 3;
+inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt | kFeatureLossy | kFeatureCompactTable;
+
+/// How a writer lays out the section table: compact (format 3.2, spec §4.4:
+/// one zstd frame of varint columns, offsets implicit) or full (48-byte
+/// entries, readable by 3.0/3.1 readers).
+enum class TableLayout { compact, full };
+/// "compact" / "full".
+const char* table_layout_name(TableLayout layout);
 
 // ---- section types ----
 enum SectionType : uint32_t {
@@ -150,6 +164,12 @@ public:
 
     /// Bytes read from the source so far (header and table included).
     uint64_t bytes_read() const { return bytes_read_; }
+    /// The layout of the file's section table and its size in bytes (what
+    /// follows the 64-byte header up to the first section).
+    TableLayout table_layout() const {
+        return (header_.required_features & kFeatureCompactTable) ? TableLayout::compact : TableLayout::full;
+    }
+    uint64_t table_bytes() const { return table_bytes_; }
 
 private:
     static Expected<ContainerReader> parse(std::unique_ptr<ByteSource> src, std::string name);
@@ -158,6 +178,7 @@ private:
     Header header_;
     std::vector<SectionInfo> sections_;
     uint64_t bytes_read_ = 0;
+    uint64_t table_bytes_ = 0;
 };
 
 // ---- writing ----
@@ -165,12 +186,18 @@ private:
 /// Collects sections in file order and writes the container atomically.
 class ContainerWriter {
 public:
+    /// The model's features; the table layout adds its own bit (set_table).
     void set_features(uint64_t required, uint64_t optional = 0) {
         header_.required_features = required;
         header_.optional_features = optional;
-        // A file using a 3.1 feature says so; the others stay 3.0, byte for byte.
-        header_.version_minor = (required & kFeatureLossy) ? kVersion3_1_Minor : kVersionMinor;
     }
+    /// The section table's layout (default compact, format 3.2). A file with the
+    /// full table says 3.1 when lossy and 3.0 otherwise, byte for byte as before 3.2.
+    void set_table(TableLayout layout) {
+        table_ = layout;
+        table_cached_ = false;
+    }
+    TableLayout table() const { return table_; }
     /// Appends a section whose stored bytes are already final (e.g. compressed
     /// in parallel by the caller with zstd_compress); flags must say how.
     void add_stored(uint32_t type, uint32_t flags, uint32_t arg0, uint32_t arg1,
@@ -205,8 +232,14 @@ public:
 
 private:
     std::vector<std::byte> head_bytes() const;
+    std::vector<std::byte> table_bytes() const;
+    uint64_t table_end() const;
     void refuse_external() const;
     Header header_;
+    TableLayout table_ = TableLayout::compact;
+    // The table's bytes depend on every section: computed once, dropped by each add.
+    mutable std::vector<std::byte> table_cache_;
+    mutable bool table_cached_ = false;
     std::vector<SectionInfo> sections_;
     struct Payload {
         std::vector<std::byte> bytes;

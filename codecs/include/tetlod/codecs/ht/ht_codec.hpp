@@ -40,6 +40,9 @@ struct HtEncodeOptions {
     /// within E of the original (quantize_predicted, quantize_volume); the errors
     /// coded are those of that field, readers add E.
     double max_error = 0;
+    /// The section table's layout (spec §4.4): compact (format 3.2) or full
+    /// (48-byte entries, for 3.0/3.1 readers). encode_ht sets it on its writer.
+    tlod::TableLayout table = tlod::TableLayout::compact;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
 };
