@@ -125,7 +125,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(carry));
             mt::distribute_tets(prev, faces, vol.dims, meshes, carry);
             prev.clear();
-            if (!carry.tets.empty()) {
+            if (carry.tets != 0) {
                 nodes.pinned.resize(n);
                 mt::pin_vertices(carry, nodes.pinned);
             } else {
@@ -190,13 +190,14 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         }
         if (stats)
             std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once, %zu tets carried over): %.2f s, %zu collapses so far\n",
-                         bricks, (long long)largest_brick, most_in_flight.load(), carry.tets.size(),
+                         bricks, (long long)largest_brick, most_in_flight.load(), carry.tets,
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size());
     }
-    if (!carry.tets.empty() || prev.size() != 1)
+    if (carry.tets != 0 || prev.size() != 1)
         throw Error(ErrorCode::CorruptData, "mt build: internal error (the last pass is not one brick)");
-    m.base_ = std::move(prev.front().tets);
+    m.base_ = mt::tets_of(prev.front());
+    prev.clear();
     if (options.record_history)
         for (const auto& t : m.base_)
             m.history_.front().base.push_back(

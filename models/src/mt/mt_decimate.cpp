@@ -285,14 +285,15 @@ struct BrickDecimator {
             for (uint32_t r = 0; r < box_points; ++r) vertex_bits[r >> 6] |= uint64_t(1) << (r & 63);
             tet_count = size_t(5) * size_t(grid.X - 1) * size_t(grid.Y - 1) * size_t(grid.Z - 1);
         } else {
+            HandedTet t;
             for (const BrickMesh* b : input) {
-                for (const auto& t : b->tets)
-                    for (uint32_t g : t) {
+                for (BrickMeshReader in(*b); in.next(t);)
+                    for (uint32_t g : t.v) {
                         const uint32_t r = local(g);
                         vertex_bits[r >> 6] |= uint64_t(1) << (r & 63);
                     }
-                owned += b->points.size();
-                tet_count += b->tets.size();
+                owned += b->points;
+                tet_count += b->tets;
             }
         }
         vertices_before.resize(vertex_bits.size());
@@ -313,18 +314,19 @@ struct BrickDecimator {
             for (const auto& t : mt::reference_tets(grid, origin)) tets.push_back(TetRec{t});
         } else {
             uint32_t next_owned = vertices;
+            HandedTet t;
             for (const BrickMesh* b : input)
-                for (size_t t = 0; t < b->tets.size(); ++t) {
+                for (BrickMeshReader in(*b); in.next(t);) {
                     std::array<uint32_t, 4> lt;
-                    for (int i = 0; i < 4; ++i) lt[i] = vertex_at(local(b->tets[t][i]));
+                    for (int i = 0; i < 4; ++i) lt[i] = vertex_at(local(t.v[i]));
                     TetRec rec{lt};
-                    rec.err = b->err[t];
-                    rec.ferr = b->face_err[t];
+                    rec.err = t.err;
+                    rec.ferr = t.face_err;
                     // Keep each point list in its order (the evaluation's early exits see it).
                     uint32_t head = kNil, *tail = &head;
-                    for (uint32_t k = b->point_start[t]; k < b->point_start[t + 1]; ++k) {
+                    for (uint32_t k = 0; k < t.points; ++k) {
                         const uint32_t p = next_owned++;
-                        set_point(p, local(b->points[k]));
+                        set_point(p, local(in.point()));
                         *tail = p;
                         tail = &point[p].next;
                     }
@@ -840,28 +842,24 @@ struct BrickDecimator {
         std::vector<uint8_t> dead(tets.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;
         BrickMesh& mesh = out.mesh;
-        {  // exact sizes: the brick's arrays are still alive, so no growth slack on top
-            size_t live = 0, owned = 0;
-            for (uint32_t t = 0; t < tets.size(); ++t) {
-                if (dead[t]) continue;
-                ++live;
-                for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) ++owned;
-            }
-            mesh.tets.reserve(live);
-            mesh.err.reserve(live);
-            mesh.face_err.reserve(live);
-            mesh.point_start.reserve(live + 1);
-            mesh.points.reserve(owned);
+        HandedTet h;
+        std::vector<uint32_t> owned;
+        auto hand_over = [&](uint32_t t) {
+            for (int i = 0; i < 4; ++i) h.v[i] = global(tets[t].v[i]);
+            h.err = tets[t].err;
+            h.face_err = tets[t].ferr;
+            owned.clear();
+            for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) owned.push_back(global(p));
+            h.points = uint32_t(owned.size());
+        };
+        {  // exact size: the brick's arrays are still alive, so no growth slack on top
+            size_t bytes = 0;
+            for (uint32_t t = 0; t < tets.size(); ++t)
+                if (!dead[t]) hand_over(t), bytes += BrickMesh::record_size(h, owned.data());
+            mesh.bytes.reserve(bytes);
         }
-        mesh.point_start.push_back(0);
-        for (uint32_t t = 0; t < tets.size(); ++t) {
-            if (dead[t]) continue;
-            mesh.tets.push_back({global(tets[t].v[0]), global(tets[t].v[1]), global(tets[t].v[2]), global(tets[t].v[3])});
-            mesh.err.push_back(tets[t].err);
-            mesh.face_err.push_back(tets[t].ferr);
-            for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) mesh.points.push_back(global(p));
-            mesh.point_start.push_back(uint32_t(mesh.points.size()));
-        }
+        for (uint32_t t = 0; t < tets.size(); ++t)
+            if (!dead[t]) hand_over(t), mesh.append(h, owned.data());
     }
 };
 
