@@ -188,11 +188,14 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(r.mesh));
             r = mt::BrickResult{};  // merged: its updates and masks need not wait for the others
         }
-        if (stats)
-            std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once, %zu tets carried over): %.2f s, %zu collapses so far\n",
+        if (stats) {
+            size_t handed_tets = carry.tets, handed_bytes = carry.bytes.size();
+            for (const mt::BrickMesh& mesh : prev) handed_tets += mesh.tets, handed_bytes += mesh.bytes.size();
+            std::fprintf(stderr, "mt build: pass of %zu bricks of up to %lld cells (up to %d at once, %zu tets carried over): %.2f s, %zu collapses so far; mesh handed over: %zu tets in %.1f MB\n",
                          bricks, (long long)largest_brick, most_in_flight.load(), carry.tets,
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-                         m.updates_.size());
+                         m.updates_.size(), handed_tets, double(handed_bytes) / 1048576.0);
+        }
     }
     if (carry.tets != 0 || prev.size() != 1)
         throw Error(ErrorCode::CorruptData, "mt build: internal error (the last pass is not one brick)");
