@@ -79,8 +79,9 @@ struct BrickDecimator {
     struct PointRec {
         std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (a box has < 2^16 points per axis)
         uint8_t planes = 0;  // planes of the volume's box the point lies on
-        uint8_t frozen : 1 = 0;  // on a face of the brick inside the volume, or pinned
-        uint8_t alive : 1 = 0;   // a vertex of the brick's mesh (not removed)
+        uint8_t frozen : 1 = 0;     // on a face of the brick inside the volume, or pinned
+        uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
+        uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
@@ -106,7 +107,6 @@ struct BrickDecimator {
     // Per vertex (sized by the vertices, not the box).
     std::vector<uint32_t> vhead;  // first corner
     std::vector<uint32_t> stamp, live_seq;
-    std::vector<uint32_t> mark;   // == mark_epoch: already collected by evaluate
 
     const std::vector<BrickMesh*>& input;
     NodeState& nodes;
@@ -125,7 +125,6 @@ struct BrickDecimator {
         std::array<uint32_t, 3> o;
     };
     std::vector<StarFace> faces;
-    uint32_t mark_epoch = 0;
 
     /// Whole-grid coordinates of point p.
     Pt c(uint32_t p) const {
@@ -345,7 +344,6 @@ struct BrickDecimator {
             for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
         stamp.assign(vertices, 0);
         live_seq.assign(vertices, 0);
-        mark.assign(vertices, 0);
     }
 
     void push_dirty(uint32_t w, double cost) {
@@ -519,10 +517,10 @@ struct BrickDecimator {
         double link_max = 0;
         // Per star tet: the orientation of the tet with w moved to x (a legal target
         // keeps every one positive) and its corners other than w. The neighbours are
-        // collected with a mark per point; their order does not matter (ranked is sorted).
+        // collected with a flag in their point records (read for the planes anyway), cleared
+        // once they are; their order does not matter (ranked is sorted).
         faces.clear();
         nbrs.clear();
-        ++mark_epoch;
         for (uint32_t t : star_w) {
             const auto& v = tets[t].v;
             const int sw = slot_of(v, w);
@@ -534,10 +532,11 @@ struct BrickDecimator {
                 if (i == sw) continue;
                 const uint32_t u = v[i];
                 f.o[k++] = u;
-                if (mark[u] != mark_epoch) mark[u] = mark_epoch, nbrs.push_back(u);
+                if (!point[u].collected) point[u].collected = 1, nbrs.push_back(u);
             }
             faces.push_back(f);
         }
+        for (uint32_t u : nbrs) point[u].collected = 0;
         // Rank the geometrically legal targets by shape first: a later target then
         // wins only with a strictly smaller error, so ties stop scanning at once.
         // When the link's face errors alone exceed the cutoff, every target is cut there:
