@@ -77,7 +77,7 @@ struct BrickDecimator {
     // What the evaluation reads about a point, in a quarter of a cache line: walking a
     // star's points costs one miss per point instead of one per array.
     struct PointRec {
-        std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (a box has < 2^16 points per axis)
+        std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (MtModel::build allows 4096 per axis)
         uint8_t planes = 0;  // planes of the volume's box the point lies on
         uint8_t frozen : 1 = 0;     // on a face of the brick inside the volume, or pinned
         uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
