@@ -32,16 +32,6 @@ uint32_t brick_of(const std::array<uint32_t, 4>& tet, const PassFaces& faces, co
     return index;
 }
 
-void append_tet(BrickMesh& into, const BrickMesh& from, size_t t) {
-    if (into.point_start.empty()) into.point_start.push_back(0);
-    into.tets.push_back(from.tets[t]);
-    into.err.push_back(from.err[t]);
-    into.face_err.push_back(from.face_err[t]);
-    into.points.insert(into.points.end(), from.points.begin() + from.point_start[t],
-                       from.points.begin() + from.point_start[t + 1]);
-    into.point_start.push_back(uint32_t(into.points.size()));
-}
-
 }  // namespace
 
 std::vector<PassFaces> plan_brick_passes(const std::array<int64_t, 3>& cells, int64_t brick_cells) {
@@ -83,28 +73,23 @@ void distribute_tets(std::vector<BrickMesh>& from, const PassFaces& faces, const
     for (const auto& f : faces) bricks *= f.size() - 1;
     into.assign(bricks, BrickMesh{});
     carry = BrickMesh{};
-    // Count first, so that every mesh is allocated once at its exact size.
-    std::vector<size_t> tets(bricks + 1, 0), points(bricks + 1, 0);
+    // Count first, so that every mesh is allocated once at its exact size. Records are
+    // position independent: they move as bytes.
+    std::vector<size_t> bytes(bricks + 1, 0);
+    HandedTet t;
     for (const BrickMesh& m : from)
-        for (size_t t = 0; t < m.tets.size(); ++t) {
-            const uint32_t b = brick_of(m.tets[t], faces, dims);
-            const size_t slot = b == kCarried ? bricks : b;
-            ++tets[slot];
-            points[slot] += m.point_start[t + 1] - m.point_start[t];
+        for (BrickMeshReader in(m); in.next(t);) {
+            const uint32_t b = brick_of(t.v, faces, dims);
+            in.skip_points();
+            bytes[b == kCarried ? bricks : b] += in.offset() - in.record_begin();
         }
-    auto reserve = [&](BrickMesh& m, size_t slot) {
-        m.tets.reserve(tets[slot]);
-        m.err.reserve(tets[slot]);
-        m.face_err.reserve(tets[slot]);
-        m.point_start.reserve(tets[slot] + 1);
-        m.points.reserve(points[slot]);
-    };
-    for (size_t b = 0; b < bricks; ++b) reserve(into[b], b);
-    reserve(carry, bricks);
+    for (size_t b = 0; b < bricks; ++b) into[b].bytes.reserve(bytes[b]);
+    carry.bytes.reserve(bytes[bricks]);
     for (BrickMesh& m : from) {
-        for (size_t t = 0; t < m.tets.size(); ++t) {
-            const uint32_t b = brick_of(m.tets[t], faces, dims);
-            append_tet(b == kCarried ? carry : into[b], m, t);
+        for (BrickMeshReader in(m); in.next(t);) {
+            const uint32_t b = brick_of(t.v, faces, dims);
+            in.skip_points();
+            (b == kCarried ? carry : into[b]).append_record(m, in.record_begin(), in.offset(), t.points);
         }
         m = BrickMesh{};
     }
@@ -112,8 +97,17 @@ void distribute_tets(std::vector<BrickMesh>& from, const PassFaces& faces, const
 
 void pin_vertices(const BrickMesh& carry, std::vector<uint8_t>& pinned) {
     std::fill(pinned.begin(), pinned.end(), uint8_t(0));
-    for (const auto& t : carry.tets)
-        for (uint32_t g : t) pinned[g] = 1;
+    HandedTet t;
+    for (BrickMeshReader in(carry); in.next(t);)
+        for (uint32_t g : t.v) pinned[g] = 1;
+}
+
+std::vector<std::array<uint32_t, 4>> tets_of(const BrickMesh& m) {
+    std::vector<std::array<uint32_t, 4>> out;
+    out.reserve(m.tets);
+    HandedTet t;
+    for (BrickMeshReader in(m); in.next(t);) out.push_back(t.v);
+    return out;
 }
 
 }  // namespace tetlod::mt

@@ -38,4 +38,7 @@ void distribute_tets(std::vector<BrickMesh>& from, const PassFaces& faces, const
 /// Sets `pinned` (sized to the volume) to 1 exactly at the vertices of `carry`.
 void pin_vertices(const BrickMesh& carry, std::vector<uint8_t>& pinned);
 
+/// The vertices of every tet of `m`, in order (the last pass's mesh is the MT's base).
+std::vector<std::array<uint32_t, 4>> tets_of(const BrickMesh& m);
+
 }  // namespace tetlod::mt

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <queue>
@@ -53,35 +54,44 @@ struct Candidate {
 
 namespace {
 
-// Works in brick-local point indices (raster order of the box). The map to
-// whole-grid indices is increasing, so every order on indices (heap ties, the
-// canonical star order) is the same as the whole grid's.
+// Point ids: the vertices of the brick's input mesh come first, in increasing
+// whole-grid order, so every order on vertex ids (heap ties, the canonical star order,
+// link keys) is the same as the whole grid's; then the removed points that the input's
+// tets own, in the order read (their ids are never compared). Only vertices have
+// per-vertex state, and nothing is sized by the brick's box but a bit per box point:
+// in the last passes most grid points are long removed (docs/mt.md §2, "Memory").
 struct BrickDecimator {
     const Volume& vol;
     const MtBuildOptions& opt;
     const BrickBox& box;
     mt::Grid grid;   // the box
     mt::Grid whole;  // the volume
-    uint32_t n;      // points in the box
+    Pt origin;       // whole-grid coordinates of the box's first point
+    uint32_t box_points;
+    uint32_t vertices = 0;  // ids below this are the input mesh's vertices
     bool int_data;
     bool small_int;  // |values| < 2^20: numerators fit in int64
-    // What the evaluation reads about a point, in half a cache line: walking a star's
-    // points costs one miss per point instead of one per array.
-    struct alignas(32) PointRec {
-        Pt c{0, 0, 0};          // whole-grid coordinates
-        uint32_t next = kNil;   // owned point list link
-        union {                 // the value: one slot for either kind, no second array
-            int64_t ival = 0;   // integer data
-            double fval;        // floating-point data
-        };
-        uint32_t mark = 0;      // == mark_epoch: already collected by evaluate
-        uint8_t planes = 0;     // planes of the volume's box the point lies on
-        uint8_t frozen = 0;     // on a face of the brick inside the volume
-        uint8_t alive = 0;      // a vertex of the brick's mesh (not removed)
+    // How a point record holds its sample: 32 bits are enough for every type but f64,
+    // whose samples are read from the volume instead.
+    enum class ValueSlot : uint8_t { Signed32, Unsigned32, Float32, InVolume } slot = ValueSlot::Signed32;
+    // What the evaluation reads about a point, in a quarter of a cache line: walking a
+    // star's points costs one miss per point instead of one per array.
+    struct PointRec {
+        std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (MtModel::build allows 4096 per axis)
+        uint8_t planes = 0;  // planes of the volume's box the point lies on
+        uint8_t frozen : 1 = 0;     // on a face of the brick inside the volume, or pinned
+        uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
+        uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
+        uint32_t next = kNil;  // owned point list link
+        uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
+    static_assert(sizeof(PointRec) == 16);
     HugePageVector<PointRec> point;
+    // The vertices of the input among the box's points (raster order), and the count of
+    // them before each 64-bit word: a box point's vertex id in O(1).
+    std::vector<uint64_t> vertex_bits;
+    std::vector<uint32_t> vertices_before;
 
-    // Tets.
     // Tets: one cache line each, so that walking a star costs one miss per tet.
     struct alignas(64) TetRec {
         std::array<uint32_t, 4> v{};                         // vertices, positively oriented
@@ -94,7 +104,7 @@ struct BrickDecimator {
     std::vector<uint32_t> free_tets;
     HugePageVector<uint32_t> prev_corner;  // per corner (4 * tet + slot): kNil at a chain's head
 
-    // Vertices / grid points.
+    // Per vertex (sized by the vertices, not the box).
     std::vector<uint32_t> vhead;  // first corner
     std::vector<uint32_t> stamp, live_seq;
 
@@ -115,9 +125,15 @@ struct BrickDecimator {
         std::array<uint32_t, 3> o;
     };
     std::vector<StarFace> faces;
-    uint32_t mark_epoch = 0;
+
+    /// Whole-grid coordinates of point p.
+    Pt c(uint32_t p) const {
+        const PointRec& r = point[p];
+        return {origin[0] + r.at[0], origin[1] + r.at[1], origin[2] + r.at[2]};
+    }
     std::array<double, 3> physical(uint32_t p) const {
-        return {point[p].c[0] * vol.spacing[0], point[p].c[1] * vol.spacing[1], point[p].c[2] * vol.spacing[2]};
+        const Pt q = c(p);
+        return {q[0] * vol.spacing[0], q[1] * vol.spacing[1], q[2] * vol.spacing[2]};
     }
 
     static Dims box_dims(const BrickBox& b) {
@@ -126,11 +142,70 @@ struct BrickDecimator {
     BrickDecimator(const Volume& v, const MtBuildOptions& o, const BrickBox& b,
                    const std::vector<BrickMesh*>& in, NodeState& nd, BrickResult& r)
         : vol(v), opt(o), box(b), grid(box_dims(b)), whole(v.dims),
-          n(uint32_t(grid.X * grid.Y * grid.Z)), input(in), nodes(nd), out(r) {}
-    uint32_t global(uint32_t i) const { return whole.index(point[i].c[0], point[i].c[1], point[i].c[2]); }
+          origin{int32_t(b.lo[0]), int32_t(b.lo[1]), int32_t(b.lo[2])},
+          box_points(uint32_t(grid.X * grid.Y * grid.Z)), input(in), nodes(nd), out(r) {}
+    uint32_t global(uint32_t i) const {
+        const Pt q = c(i);
+        return whole.index(q[0], q[1], q[2]);
+    }
+    /// Box raster index of a whole-grid point.
     uint32_t local(uint32_t g) const {
         const Pt p = whole.coord(g);
-        return grid.index(p[0] - box.lo[0], p[1] - box.lo[1], p[2] - box.lo[2]);
+        return grid.index(p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]);
+    }
+    /// Vertex id of the box point at raster index r, kNil if it is no input vertex.
+    uint32_t vertex_at(uint32_t r) const {
+        const uint64_t word = vertex_bits[r >> 6], below = (uint64_t(1) << (r & 63)) - 1;
+        if (((word >> (r & 63)) & 1) == 0) return kNil;
+        return vertices_before[r >> 6] + uint32_t(__builtin_popcountll(word & below));
+    }
+
+    // ---- samples --------------------------------------------------------------
+    // A sample as the deviation reads it: `i` for integer data, `f` for floating point.
+    struct Sample {
+        int64_t i = 0;
+        double f = 0;
+    };
+    Sample sample_at(uint32_t g) const {
+        const double v = vol.value(g);
+        return int_data ? Sample{int64_t(v), 0.0} : Sample{0, v};
+    }
+    int64_t ival(uint32_t p) const {
+        const uint32_t bits = point[p].value;
+        return slot == ValueSlot::Unsigned32 ? int64_t(bits) : int64_t(int32_t(bits));
+    }
+    double fval(uint32_t p) const {
+        if (slot == ValueSlot::InVolume) return vol.value(global(p));
+        float f;
+        std::memcpy(&f, &point[p].value, sizeof f);
+        return double(f);
+    }
+    Sample sample(uint32_t p) const { return int_data ? Sample{ival(p), 0.0} : Sample{0, fval(p)}; }
+    /// Fills point p as the box point at raster index r.
+    void set_point(uint32_t p, uint32_t r) {
+        PointRec& rec = point[p];
+        const Pt l = grid.coord(r);
+        rec.at = {uint16_t(l[0]), uint16_t(l[1]), uint16_t(l[2])};
+        const Pt q = c(p);
+        rec.planes = whole.planes(q);
+        bool f = false;
+        for (int a = 0; a < 3; ++a) {
+            const int64_t last = (a == 0 ? whole.X : a == 1 ? whole.Y : whole.Z) - 1;
+            f |= (q[a] == box.lo[a] && box.lo[a] != 0) || (q[a] == box.hi[a] && box.hi[a] != last);
+        }
+        const uint32_t g = global(p);
+        rec.frozen = f || (!nodes.pinned.empty() && nodes.pinned[g] != 0);
+        const double v = vol.value(g);
+        switch (slot) {
+        case ValueSlot::Signed32: rec.value = uint32_t(int32_t(int64_t(v))); break;
+        case ValueSlot::Unsigned32: rec.value = uint32_t(int64_t(v)); break;
+        case ValueSlot::Float32: {
+            const float f32 = float(v);
+            std::memcpy(&rec.value, &f32, sizeof f32);
+            break;
+        }
+        case ValueSlot::InVolume: break;
+        }
     }
 
     // ---- corner chains -------------------------------------------------------
@@ -163,34 +238,34 @@ struct BrickDecimator {
         return -1;
     }
     std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
-        return {point[t[0]].c, point[t[1]].c, point[t[2]].c, point[t[3]].c};
+        return {c(t[0]), c(t[1]), c(t[2]), c(t[3])};
     }
 
-    // ---- exact deviation of point p from the interpolant of a tet -----------
-    // d: barycentric numerators of p (sum = det > 0). Returns the error as a double
-    // and whether it is exact.
-    double deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
+    // ---- exact deviation of a sample from the interpolant of a tet ----------
+    // d: barycentric numerators of the sample's point (sum = det > 0). Returns the
+    // error as a double and whether it is exact.
+    double deviation(const Sample& x, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
                      int64_t det, bool& exact) const {
         if (small_int) {  // |values| < 2^20 and |det| < 2^40: the numerator fits 64 bits
-            int64_t num = point[p].ival * det;
-            for (int i = 0; i < 4; ++i) num -= point[t[i]].ival * d[i];
+            int64_t num = x.i * det;
+            for (int i = 0; i < 4; ++i) num -= ival(t[i]) * d[i];
             if (num < 0) num = -num;
             if (num == 0) return 0.0;
             exact = exact && num % det == 0 && num / det < (int64_t(1) << 53);
             return double(num) / double(det);
         }
         if (int_data) {
-            __int128 num = __int128(point[p].ival) * det;
-            for (int i = 0; i < 4; ++i) num -= __int128(point[t[i]].ival) * d[i];
+            __int128 num = __int128(x.i) * det;
+            for (int i = 0; i < 4; ++i) num -= __int128(ival(t[i])) * d[i];
             if (num < 0) num = -num;
             if (num == 0) return 0.0;
             exact = exact && (num % det == 0) && num / det < (__int128(1) << 53);
             return double(num) / double(det);
         }
         double l = 0;
-        for (int i = 0; i < 4; ++i) l += point[t[i]].fval * double(d[i]);
+        for (int i = 0; i < 4; ++i) l += fval(t[i]) * double(d[i]);
         exact = false;
-        return std::fabs(point[p].fval - l / double(det));
+        return std::fabs(x.f - l / double(det));
     }
 
     // ---- setup ---------------------------------------------------------------
@@ -198,42 +273,59 @@ struct BrickDecimator {
         int_data = !is_float(vol.type);
         small_int = vol.type == ValueType::U8 || vol.type == ValueType::I8 || vol.type == ValueType::U16 ||
                     vol.type == ValueType::I16;
-        point.assign(n, PointRec{});
-        const Pt lo{int32_t(box.lo[0]), int32_t(box.lo[1]), int32_t(box.lo[2])};
-        for (uint32_t i = 0; i < n; ++i) {
-            const Pt c = grid.coord(i);
-            point[i].c = {c[0] + lo[0], c[1] + lo[1], c[2] + lo[2]};
-            point[i].planes = whole.planes(point[i].c);
-            uint8_t f = 0;
-            for (int a = 0; a < 3; ++a) {
-                const int64_t last = (a == 0 ? whole.X : a == 1 ? whole.Y : whole.Z) - 1;
-                f |= (point[i].c[a] == box.lo[a] && box.lo[a] != 0) || (point[i].c[a] == box.hi[a] && box.hi[a] != last);
-            }
-            const uint32_t g = global(i);
-            point[i].frozen = f | (nodes.pinned.empty() ? uint8_t(0) : nodes.pinned[g]);
-            if (int_data) point[i].ival = int64_t(vol.value(g));
-            else point[i].fval = vol.value(g);
-        }
-        {
-            size_t count = input.empty() ? size_t(5) * size_t(grid.X - 1) * size_t(grid.Y - 1) * size_t(grid.Z - 1) : 0;
-            for (const BrickMesh* b : input) count += b->tets.size();
-            tets.reserve(count);
-        }
+        slot = vol.type == ValueType::U32   ? ValueSlot::Unsigned32
+               : vol.type == ValueType::F32 ? ValueSlot::Float32
+               : vol.type == ValueType::F64 ? ValueSlot::InVolume
+                                            : ValueSlot::Signed32;
+        // Which box points are vertices, and how many points the input's tets own.
+        vertex_bits.assign((size_t(box_points) + 63) / 64, 0);
+        size_t owned = 0, tet_count = 0;
         if (input.empty()) {
-            for (const auto& t : mt::reference_tets(grid, lo)) tets.push_back(TetRec{t});
-            for (uint32_t i = 0; i < n; ++i) point[i].alive = 1;
+            for (uint32_t r = 0; r < box_points; ++r) vertex_bits[r >> 6] |= uint64_t(1) << (r & 63);
+            tet_count = size_t(5) * size_t(grid.X - 1) * size_t(grid.Y - 1) * size_t(grid.Z - 1);
         } else {
+            HandedTet t;
+            for (const BrickMesh* b : input) {
+                for (BrickMeshReader in(*b); in.next(t);)
+                    for (uint32_t g : t.v) {
+                        const uint32_t r = local(g);
+                        vertex_bits[r >> 6] |= uint64_t(1) << (r & 63);
+                    }
+                owned += b->points;
+                tet_count += b->tets;
+            }
+        }
+        vertices_before.resize(vertex_bits.size());
+        for (size_t i = 0; i < vertex_bits.size(); ++i) {
+            vertices_before[i] = vertices;
+            vertices += uint32_t(__builtin_popcountll(vertex_bits[i]));
+        }
+        point.assign(size_t(vertices) + owned, PointRec{});
+        for (size_t i = 0; i < vertex_bits.size(); ++i)
+            for (uint64_t word = vertex_bits[i]; word != 0; word &= word - 1) {
+                const uint32_t r = uint32_t(i * 64) + uint32_t(__builtin_ctzll(word));
+                const uint32_t v = vertex_at(r);
+                set_point(v, r);
+                point[v].alive = 1;
+            }
+        tets.reserve(tet_count);
+        if (input.empty()) {
+            for (const auto& t : mt::reference_tets(grid, origin)) tets.push_back(TetRec{t});
+        } else {
+            uint32_t next_owned = vertices;
+            HandedTet t;
             for (const BrickMesh* b : input)
-                for (size_t t = 0; t < b->tets.size(); ++t) {
+                for (BrickMeshReader in(*b); in.next(t);) {
                     std::array<uint32_t, 4> lt;
-                    for (int i = 0; i < 4; ++i) point[lt[i] = local(b->tets[t][i])].alive = 1;
+                    for (int i = 0; i < 4; ++i) lt[i] = vertex_at(local(t.v[i]));
                     TetRec rec{lt};
-                    rec.err = b->err[t];
-                    rec.ferr = b->face_err[t];
+                    rec.err = t.err;
+                    rec.ferr = t.face_err;
                     // Keep each point list in its order (the evaluation's early exits see it).
                     uint32_t head = kNil, *tail = &head;
-                    for (uint32_t k = b->point_start[t]; k < b->point_start[t + 1]; ++k) {
-                        const uint32_t p = local(b->points[k]);
+                    for (uint32_t k = 0; k < t.points; ++k) {
+                        const uint32_t p = next_owned++;
+                        set_point(p, local(in.point()));
                         *tail = p;
                         tail = &point[p].next;
                     }
@@ -247,11 +339,11 @@ struct BrickDecimator {
         }
         const size_t m = tets.size();
         prev_corner.assign(4 * m, kNil);
-        vhead.assign(n, kNil);
+        vhead.assign(vertices, kNil);
         for (size_t t = m; t-- > 0;)
             for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
-        stamp.assign(n, 0);
-        live_seq.assign(n, 0);
+        stamp.assign(vertices, 0);
+        live_seq.assign(vertices, 0);
     }
 
     void push_dirty(uint32_t w, double cost) {
@@ -386,7 +478,7 @@ struct BrickDecimator {
     }
     // Index of the first new tet containing p (guess first), -1 if none.
     int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) const {
-        const Pt& q = point[p].c;
+        const Pt q = c(p);
         if (guess >= 0 && nb[guess].locate(q, d)) return guess;
         for (size_t j = 0; j < nb.size(); ++j)
             if (int(j) != guess && nb[j].locate(q, d)) return int(j);
@@ -406,12 +498,12 @@ struct BrickDecimator {
     double quick_deviation(uint32_t p, const std::array<uint32_t, 4>& t, const std::array<int64_t, 4>& d,
                            int64_t det) const {
         if (small_int) {
-            int64_t num = point[p].ival * det;
-            for (int i = 0; i < 4; ++i) num -= point[t[i]].ival * d[i];
+            int64_t num = ival(p) * det;
+            for (int i = 0; i < 4; ++i) num -= ival(t[i]) * d[i];
             return double(num < 0 ? -num : num) / double(det);
         }
         bool exact = true;
-        return deviation(p, t, d, det, exact);
+        return deviation(sample(p), t, d, det, exact);
     }
 
     /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
@@ -425,10 +517,10 @@ struct BrickDecimator {
         double link_max = 0;
         // Per star tet: the orientation of the tet with w moved to x (a legal target
         // keeps every one positive) and its corners other than w. The neighbours are
-        // collected with a mark per point; their order does not matter (ranked is sorted).
+        // collected with a flag in their point records (read for the planes anyway), cleared
+        // once they are; their order does not matter (ranked is sorted).
         faces.clear();
         nbrs.clear();
-        ++mark_epoch;
         for (uint32_t t : star_w) {
             const auto& v = tets[t].v;
             const int sw = slot_of(v, w);
@@ -440,10 +532,11 @@ struct BrickDecimator {
                 if (i == sw) continue;
                 const uint32_t u = v[i];
                 f.o[k++] = u;
-                if (point[u].mark != mark_epoch) point[u].mark = mark_epoch, nbrs.push_back(u);
+                if (!point[u].collected) point[u].collected = 1, nbrs.push_back(u);
             }
             faces.push_back(f);
         }
+        for (uint32_t u : nbrs) point[u].collected = 0;
         // Rank the geometrically legal targets by shape first: a later target then
         // wins only with a strictly smaller error, so ties stop scanning at once.
         // When the link's face errors alone exceed the cutoff, every target is cut there:
@@ -455,7 +548,7 @@ struct BrickDecimator {
         ranked.clear();
         for (uint32_t s : nbrs) {
             if ((point[w].planes & ~point[s].planes) != 0 || point[s].frozen) continue;
-            const Pt& cs = point[s].c;
+            const Pt cs = c(s);
             bool legal = true;
             for (const StarFace& f : faces)
                 if (f.o[0] != s && f.o[1] != s && f.o[2] != s && f.plane.at(cs) <= 0) {
@@ -603,9 +696,9 @@ struct BrickDecimator {
         }
         vhead[w] = kNil;
         // Relocate the points.
-        auto account = [&](uint32_t p, int jj, const std::array<int64_t, 4>& dd) {
+        auto account = [&](const Sample& x, int jj, const std::array<int64_t, 4>& dd) {
             bool exact = true;
-            const double dev = deviation(p, ntv[jj], dd, nb[jj].det, exact);
+            const double dev = deviation(x, ntv[jj], dd, nb[jj].det, exact);
             if (dev > ne[jj]) ne[jj] = dev;
             if (!exact) nexact[jj] = false;
             const float fd = mt::round_up_float(dev, exact);
@@ -620,11 +713,13 @@ struct BrickDecimator {
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
             point[p].next = tets[newid[j]].head;
             tets[newid[j]].head = p;
-            account(p, j, d);
+            const Sample x = sample(p);
+            account(x, j, d);
             if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
                 std::array<int64_t, 4> d2;
+                const Pt cp = c(p);
                 for (size_t k = 0; k < ntv.size(); ++k)
-                    if (int(k) != j && nb[k].locate(point[p].c, d2)) account(p, int(k), d2);
+                    if (int(k) != j && nb[k].locate(cp, d2)) account(x, int(k), d2);
             }
         }
         // A removed point on an edge of a new tet can be owned by a tet outside the star
@@ -636,18 +731,20 @@ struct BrickDecimator {
         for (size_t j = 0; j < ntv.size(); ++j)
             for (int e0 = 0; e0 < 3; ++e0)
                 for (int e1 = e0 + 1; e1 < 4; ++e1) {
-                    const Pt& a = point[ntv[j][e0]].c;
-                    const Pt& b = point[ntv[j][e1]].c;
+                    const Pt a = c(ntv[j][e0]);
+                    const Pt b = c(ntv[j][e1]);
                     const int64_t dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
                     if ((std::abs(dx) | std::abs(dy) | std::abs(dz)) <= 1) continue;
                     const int64_t g = std::gcd(std::gcd(std::abs(dx), std::abs(dy)), std::abs(dz));
                     for (int64_t k = 1; k < g; ++k) {
                         const Pt q{int32_t(a[0] + dx / g * k), int32_t(a[1] + dy / g * k), int32_t(a[2] + dz / g * k)};
-                        const uint32_t p = grid.index(q[0] - box.lo[0], q[1] - box.lo[1], q[2] - box.lo[2]);
-                        if (point[p].alive && p != w) continue;  // a vertex: no deviation
+                        // The point may be owned by a tet of another brick: its sample comes
+                        // from the volume, and only a vertex has an id here.
+                        const uint32_t v = vertex_at(grid.index(q[0] - origin[0], q[1] - origin[1], q[2] - origin[2]));
+                        if (v != kNil && point[v].alive && v != w) continue;  // a vertex: no deviation
                         std::array<int64_t, 4> dd;
                         if (!nb[j].locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
-                        account(p, int(j), dd);
+                        account(sample_at(whole.index(q[0], q[1], q[2])), int(j), dd);
                     }
                 }
         for (size_t j = 0; j < ntv.size(); ++j) {
@@ -674,7 +771,7 @@ struct BrickDecimator {
         for (uint32_t u : link) label = std::max(label, nodes.label[global(u)]);
         label += 1;
         // Split mask over the canonically ordered star.
-        mt::star_order(star_s_scratch, s, point[s].c, point[w].c, grid,
+        mt::star_order(star_s_scratch, s, c(s), c(w), [&](uint32_t v) { return c(v); },
                        [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tets[t].v; }, mask_perm,
                        mask_keys);
         MtUpdate u;
@@ -713,7 +810,7 @@ struct BrickDecimator {
     void run(const BrickProgress& progress) {
         init();
         uint64_t candidates = 0;
-        for (uint32_t v = 0; v < n; ++v)
+        for (uint32_t v = 0; v < vertices; ++v)
             if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0), ++candidates;
         while (!heap.empty()) {
             const Entry e = heap.top();
@@ -744,28 +841,24 @@ struct BrickDecimator {
         std::vector<uint8_t> dead(tets.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;
         BrickMesh& mesh = out.mesh;
-        {  // exact sizes: the brick's arrays are still alive, so no growth slack on top
-            size_t live = 0, owned = 0;
-            for (uint32_t t = 0; t < tets.size(); ++t) {
-                if (dead[t]) continue;
-                ++live;
-                for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) ++owned;
-            }
-            mesh.tets.reserve(live);
-            mesh.err.reserve(live);
-            mesh.face_err.reserve(live);
-            mesh.point_start.reserve(live + 1);
-            mesh.points.reserve(owned);
+        HandedTet h;
+        std::vector<uint32_t> owned;
+        auto hand_over = [&](uint32_t t) {
+            for (int i = 0; i < 4; ++i) h.v[i] = global(tets[t].v[i]);
+            h.err = tets[t].err;
+            h.face_err = tets[t].ferr;
+            owned.clear();
+            for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) owned.push_back(global(p));
+            h.points = uint32_t(owned.size());
+        };
+        {  // exact size: the brick's arrays are still alive, so no growth slack on top
+            size_t bytes = 0;
+            for (uint32_t t = 0; t < tets.size(); ++t)
+                if (!dead[t]) hand_over(t), bytes += BrickMesh::record_size(h, owned.data());
+            mesh.bytes.reserve(bytes);
         }
-        mesh.point_start.push_back(0);
-        for (uint32_t t = 0; t < tets.size(); ++t) {
-            if (dead[t]) continue;
-            mesh.tets.push_back({global(tets[t].v[0]), global(tets[t].v[1]), global(tets[t].v[2]), global(tets[t].v[3])});
-            mesh.err.push_back(tets[t].err);
-            mesh.face_err.push_back(tets[t].ferr);
-            for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) mesh.points.push_back(global(p));
-            mesh.point_start.push_back(uint32_t(mesh.points.size()));
-        }
+        for (uint32_t t = 0; t < tets.size(); ++t)
+            if (!dead[t]) hand_over(t), mesh.append(h, owned.data());
     }
 };
 

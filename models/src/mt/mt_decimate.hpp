@@ -12,6 +12,7 @@
 #include <functional>
 #include <vector>
 
+#include "mt_brick_mesh.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
 
 namespace tetlod::mt {
@@ -24,17 +25,6 @@ struct BrickBox {
 /// The brick faces of one pass, per axis: increasing cell coordinates from 0 to the
 /// cells of the axis; brick i of an axis spans faces[i]..faces[i + 1].
 using PassFaces = std::array<std::vector<int64_t>, 3>;
-
-/// The decimated mesh a brick hands to the next pass: its tets in whole-grid indices
-/// with their closed errors and face errors, and the removed grid points each tet
-/// owns (CSR). Orders are deterministic.
-struct BrickMesh {
-    std::vector<std::array<uint32_t, 4>> tets;
-    std::vector<float> err;
-    std::vector<std::array<float, 4>> face_err;
-    std::vector<uint32_t> point_start;  // tets.size() + 1 entries (empty: no tets)
-    std::vector<uint32_t> points;
-};
 
 /// Node state of every grid point of the whole volume. A brick reads it for its box and
 /// writes it for its free points only (in place, as it collapses: no copy per brick), so

@@ -142,7 +142,7 @@ struct MtRefiner {
         if (slot_of.find(w) != mt::SlotMap::kAbsent) corrupt("inserted point already present");
         if (star.size() != u.star) corrupt("star size differs from the stored one");
         const Pt ps = grid.coord(s), pw = grid.coord(w);
-        mt::star_order(star, s, ps, pw, grid, [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; },
+        mt::star_order(star, s, ps, pw, [&](uint32_t v) { return grid.coord(v); }, [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; },
                        perm, keys);
         std::vector<uint8_t> side(star.size());
         const uint64_t mask = m.mask_offset(k);

@@ -164,10 +164,11 @@ inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::ar
 /// Canonical order of the star of node s for its split towards w (spec/mt-model.md §M5):
 /// first by -(sum of the tet's corners - 4 s).(w - s) (tets leaning towards w come
 /// first, so masks are mostly a prefix of ones), then by the sorted grid indices of
-/// the face opposite s. Returns the permutation (positions into `star`).
-template <class TetOf>
+/// the face opposite s. Vertex ids must be in the order of the grid indices; `coord_of`
+/// gives a vertex's grid coordinates. Returns the permutation (positions into `star`).
+template <class CoordOf, class TetOf>
 void star_order(const std::vector<uint32_t>& star, uint32_t s, const Pt& ps, const Pt& pw,
-                const Grid& g, TetOf tet_of, std::vector<uint32_t>& perm,
+                CoordOf coord_of, TetOf tet_of, std::vector<uint32_t>& perm,
                 std::vector<std::pair<int64_t, std::array<uint32_t, 3>>>& keys) {
     const int64_t dx = pw[0] - ps[0], dy = pw[1] - ps[1], dz = pw[2] - ps[2];
     keys.resize(star.size());
@@ -177,7 +178,7 @@ void star_order(const std::vector<uint32_t>& star, uint32_t s, const Pt& ps, con
         std::array<uint32_t, 3> f{};
         int nf = 0;
         for (int j = 0; j < 4; ++j) {
-            const Pt p = g.coord(v[j]);
+            const Pt p = coord_of(v[j]);
             sx += p[0] - ps[0], sy += p[1] - ps[1], sz += p[2] - ps[2];
             if (v[j] != s && nf < 3) f[nf++] = v[j];
         }
