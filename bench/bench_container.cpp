@@ -166,7 +166,7 @@ int main(int argc, char** argv) {
                     double(full) / z, double(m.tlod.bytes) / z, (unsigned long long)m.tlod.full_table_bytes,
                     (unsigned long long)m.tlod.table_bytes, (unsigned long long)(4 * m.tlod.nonempty_sections));
     }
-    std::printf("\nLossy .tlod (convert --max-error, format 3.1) at 0.1%% and 1%% of the value range: bytes and\n"
+    std::printf("\nLossy .tlod (convert --max-error: the LOSSY feature of format 3.1, with the 3.2 compact table) at 0.1%% and 1%% of the value range: bytes and\n"
                 "ratio to the lossless .tlod and to zstd-19 (\"!\": a sample beyond the bound)\n");
     std::printf("%-36s %9s %12s %8s %8s %12s %8s %8s\n", "volume", "tlod", "lossy-0.1%", "/tlod", "/zst",
                 "lossy-1%", "/tlod", "/zst");
