@@ -304,7 +304,8 @@ TEST(CompactTable, HostileTablesRefusedWithTheirError) {
     const uint64_t sum = checksum64(payload);
     // The hand-made file itself is sound.
     {
-        auto r = ContainerReader::from_memory(compact_file(one_entry(3, sum), 1, payload));
+        const auto good = compact_file(one_entry(3, sum), 1, payload);  // must outlive the reader
+        auto r = ContainerReader::from_memory(good);
         ASSERT_TRUE(r.ok()) << r.failure().message;
         ASSERT_EQ(r->sections().size(), 1u);
         EXPECT_EQ(r->sections()[0].type, 99u);
