@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Speed-up of tetlod-mpi (docs/distributed.md §2): `tetlod convert` and
-# `mpirun -n 1|2 tetlod-mpi convert` on a generated volume, alternated,
+# `mpirun -n 1|2 tetlod-mpi convert` on a generated volume, alternated, with
+# threads (--bind-to none) and at one core per rank (--bind-to core),
 # REPEAT times each; prints every run (wall, user CPU of the job), the minimum
 # of each, the speed-up of -n 2 over -n 1 and over the serial tool, the load
 # (uptime) before each run, the bytes each rank read, sent and wrote (-v), and checks
@@ -42,14 +43,18 @@ run() {
     echo "$wall" >> "$label.walls"
 }
 if [[ $what == *convert* ]]; then
-rm -f serial.walls n1.walls n2.walls
+rm -f serial.walls n1.walls n2.walls n1c.walls n2c.walls
 for i in $(seq "$repeat"); do
     run serial "$tetlod" -q convert "$in" serial.tlod -f
     run n1 mpirun -n 1 --bind-to none "$tetlod_mpi" -v -f convert "$in" n1.tlod
     run n2 mpirun -n 2 --bind-to none "$tetlod_mpi" -v -f convert "$in" n2.tlod
-    cmp serial.tlod n1.tlod && cmp serial.tlod n2.tlod || { echo "FAIL: containers differ"; exit 1; }
+    # One core per rank: the strong scaling of the ranks themselves. With
+    # threads (above) one rank already keeps both cores of this machine busy.
+    run n1c mpirun -n 1 --bind-to core "$tetlod_mpi" -v -f convert "$in" n1c.tlod
+    run n2c mpirun -n 2 --bind-to core "$tetlod_mpi" -v -f convert "$in" n2c.tlod
+    for f in n1 n2 n1c n2c; do cmp serial.tlod $f.tlod || { echo "FAIL: containers differ ($f)"; exit 1; }; done
 done
-s=$(best serial) a=$(best n1) b=$(best n2)
+s=$(best serial) a=$(best n1) b=$(best n2) ac=$(best n1c) bc=$(best n2c)
 echo "per rank, last -n 1 run:"; grep -A2 '^rank' n1.err | head -3
 echo "per rank, last -n 2 run:"; grep -A3 '^rank' n2.err | head -4
 for f in n1 n2; do
@@ -59,6 +64,9 @@ done
 printf 'minimum wall: serial %.2f s, -n 1 %.2f s, -n 2 %.2f s\n' "$s" "$a" "$b"
 printf 'speed-up of -n 2: %.2fx over -n 1, %.2fx over tetlod convert (containers byte-identical)\n' \
     "$(echo "$a / $b" | bc -l)" "$(echo "$s / $b" | bc -l)"
+echo "per rank, last -n 2 run at one core per rank:"; grep -A3 '^rank' n2c.err | head -4
+printf 'one core per rank (--bind-to core): -n 1 %.2f s, -n 2 %.2f s, speed-up %.2fx\n' \
+    "$ac" "$bc" "$(echo "$ac / $bc" | bc -l)"
 fi
 
 [ -f serial.tlod ] || "$tetlod" -q convert "$in" serial.tlod
