@@ -370,7 +370,7 @@ void ContainerWriter::add_external(uint32_t type, uint32_t flags, uint32_t arg0,
     table_cached_ = false;
 }
 
-std::vector<std::byte> ContainerWriter::table_bytes() const {
+const std::vector<std::byte>& ContainerWriter::table_bytes() const {
     if (table_cached_) return table_cache_;
     std::vector<std::byte> table;
     if (table_ == TableLayout::compact) {
@@ -390,9 +390,9 @@ std::vector<std::byte> ContainerWriter::table_bytes() const {
             offset += s.stored_size;
         }
     }
-    table_cache_ = table;
+    table_cache_ = std::move(table);
     table_cached_ = true;
-    return table;
+    return table_cache_;
 }
 
 uint64_t ContainerWriter::table_end() const {
@@ -427,7 +427,7 @@ std::vector<std::byte> ContainerWriter::leading_bytes() const {
 }
 
 std::vector<std::byte> ContainerWriter::head_bytes() const {
-    const std::vector<std::byte> table = table_bytes();
+    const std::vector<std::byte>& table = table_bytes();
     const bool compact = table_ == TableLayout::compact;
     const uint64_t required = header_.required_features | (compact ? kFeatureCompactTable : 0);
     // A file says the oldest version that has every feature it uses: files

@@ -277,7 +277,8 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
-    const double max_error = o.mt ? 0.0 : stored_max_error(source.header().type, o.max_error);
+    // check_options refuses a lossy MT, so a lossy request here is HT only.
+    const double max_error = stored_max_error(source.header().type, o.max_error);
     if (max_error > 0 && !lossy_reads_whole(source.header(), o.memory_bytes))
         return write_lossy_streaming(source, path, o, max_error, Stopwatch());
     if (o.mt || o.max_error > 0) {

@@ -232,7 +232,8 @@ public:
 
 private:
     std::vector<std::byte> head_bytes() const;
-    std::vector<std::byte> table_bytes() const;
+    /// The table region's bytes, computed once after the last add.
+    const std::vector<std::byte>& table_bytes() const;
     uint64_t table_end() const;
     void refuse_external() const;
     Header header_;
