@@ -6,19 +6,12 @@
 
 #include <zstd.h>
 
+#include "tetlod/core/varint.hpp"
 #include "tetlod/format/byte_io.hpp"
 
 namespace tetlod::tlod::compact_table {
 
 namespace {
-
-void put_varint(std::vector<std::byte>& out, uint64_t v) {
-    while (v >= 0x80) {
-        out.push_back(std::byte(static_cast<uint8_t>(v | 0x80)));
-        v >>= 7;
-    }
-    out.push_back(std::byte(static_cast<uint8_t>(v)));
-}
 
 // Arguments are delta-coded against the previous entry's (chunk cycles and
 // bricks mostly repeat or step by one), wrapping modulo 2^32, and the signed

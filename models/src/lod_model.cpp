@@ -62,7 +62,7 @@ LodModel make_lod_model(std::shared_ptr<const MtModel> mt) {
     m.dims = mt->dims();
     m.range = mt->value_range();
     m.memory_bytes = mt->field().bytes() + mt->base_tets().size() * 16 +
-                     mt->updates().size() * sizeof(MtUpdate) + mt->mask_bits().size() * 8;
+                     mt->updates().size() * sizeof(MtSplit) + mt->mask_bits().size() * 8;
     m.updates = mt->updates().size();
     m.mt_base_tets = mt->base_tets().size();
     m.mt = std::move(mt);

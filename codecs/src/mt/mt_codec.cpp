@@ -25,6 +25,7 @@
 
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/codecs/error_quantizer.hpp"
+#include "tetlod/core/varint.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/format/container.hpp"
 
@@ -44,15 +45,9 @@ int stream_count(uint64_t coding) { return coding == 1 ? kStreamsCoding1 : kStre
 void put_le(std::vector<uint8_t>& o, uint64_t v, int bytes) {
     for (int i = 0; i < bytes; ++i) o.push_back(uint8_t(v >> (8 * i)));
 }
-void put_varint(std::vector<uint8_t>& o, uint64_t v) {
-    while (v >= 0x80) o.push_back(uint8_t(v | 0x80)), v >>= 7;
-    o.push_back(uint8_t(v));
-}
 void put_le_bytes(std::vector<std::byte>& o, uint64_t v) {
     for (int i = 0; i < 8; ++i) o.push_back(std::byte(uint8_t(v >> (8 * i))));
 }
-uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
-int64_t unzigzag(uint64_t v) { return int64_t(v >> 1) ^ -int64_t(v & 1); }
 
 struct Reader {
     const uint8_t* p;
@@ -194,8 +189,8 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     for (size_t k = 0; k < m.updates().size(); ++k) by_w[m.updates()[k].w] = uint32_t(k);
     for (uint32_t w = 0; w < by_w.size(); ++w) {
         if (by_w[w] == mt::kNil) continue;
-        const MtUpdate& u = m.updates()[by_w[w]];
-        const mt::Pt pw = g.coord(w), ps = g.coord(u.s);
+        const MtSplit& u = m.updates()[by_w[w]];
+        const mt::Pt pw = g.coord(w), ps = g.coord(m.survivor(by_w[w]));
         int64_t d[3];
         bool fits_near = true;
         for (int a = 0; a < 3; ++a) d[a] = int64_t(ps[a]) - pw[a], fits_near = fits_near && d[a] >= -2 && d[a] <= 2;

@@ -102,6 +102,11 @@ void MtModel::finalize() {
         }
     }
     // Masks in the new order (offsets of the given order still in mask_start_).
+    auto given_offset = [&](size_t k) {
+        uint64_t off = mask_start_[k >> 6];
+        for (size_t j = k & ~size_t(63); j < k; ++j) off += updates_[j].star;
+        return off;
+    };
     std::vector<uint64_t> masks((mask_end + 63) / 64, 0);
     std::vector<uint64_t> starts;
     starts.reserve(mask_start_.capacity());
@@ -109,7 +114,7 @@ void MtModel::finalize() {
     for (size_t j = 0; j < order.size(); ++j) {
         if ((j & 63) == 0) starts.push_back(at);
         const uint32_t star = updates_[order[j]].star;
-        copy_bits(mask_bits_, mask_offset(order[j]), masks, at, star);
+        copy_bits(mask_bits_, given_offset(order[j]), masks, at, star);
         at += star;
     }
     mask_bits_ = std::move(masks);
@@ -121,25 +126,19 @@ void MtModel::finalize() {
         for (size_t j = 0; j < order.size(); ++j) new_pos[order[j]] = uint32_t(j);
         for (uint32_t& k : where) k = new_pos[k];
     }
-    // Permute in place, cycle by cycle (order[j] = j marks a placed slot).
-    for (size_t i = 0; i < order.size(); ++i) {
-        if (order[i] == i) continue;
-        const MtUpdate first = updates_[i];
-        size_t j = i;
-        while (order[j] != i) {
-            const size_t k = order[j];
-            updates_[j] = updates_[k];
-            order[j] = uint32_t(j);
-            j = k;
-        }
-        updates_[j] = first;
-        order[j] = uint32_t(j);
+    // The kept records in the new order; the survivor is their group's.
+    splits_.clear();
+    splits_.reserve(order.size());
+    for (const uint32_t k : order) {
+        const MtUpdate& u = updates_[k];
+        splits_.push_back(MtSplit{u.w, u.label, u.error, u.star});
     }
     std::vector<uint32_t>().swap(order);
+    std::vector<MtUpdate>().swap(updates_);
     // The node an update inserts at w must be younger than the update.
-    for (const MtUpdate& u : updates_) {
+    for (const MtSplit& u : splits_) {
         if (csr_start_[u.w + 1] > csr_start_[u.w]) {
-            const MtUpdate& last = updates_[csr_start_[u.w + 1] - 1];
+            const MtSplit& last = splits_[csr_start_[u.w + 1] - 1];
             if (last.label >= u.label) corrupt("child label not below its parent");
             if (last.error > u.error) corrupt("errors not monotone up the forest");
         }
@@ -147,9 +146,15 @@ void MtModel::finalize() {
     range_ = field_.range();
 }
 
+uint32_t MtModel::survivor(size_t k) const {
+    // The group p holds [csr_start_[p], csr_start_[p + 1]): the last start <= k.
+    const auto it = std::upper_bound(csr_start_.begin(), csr_start_.end(), uint32_t(k));
+    return uint32_t(it - csr_start_.begin()) - 1;
+}
+
 std::size_t MtModel::memory_bytes() const {
     auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-    std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(mask_bits_) + bytes(mask_start_) +
+    std::size_t r = sizeof(*this) + bytes(field_.data) + bytes(base_) + bytes(updates_) + bytes(splits_) + bytes(mask_bits_) + bytes(mask_start_) +
                     bytes(csr_start_) + bytes(history_);
     for (const MtHistory& h : history_) {
         for (const auto* lists : {&h.before, &h.after}) {

@@ -62,7 +62,7 @@ struct MtRefiner {
     void set_node(uint32_t v, uint32_t npos) {
         Vertex& x = verts[v];
         x.pos = npos;
-        x.label = npos == 0 ? 0 : m.updates_[m.csr_start_[x.grid] + npos - 1].label;
+        x.label = npos == 0 ? 0 : m.splits_[m.csr_start_[x.grid] + npos - 1].label;
     }
     uint32_t add_vertex(uint32_t g) {
         const uint32_t v = uint32_t(verts.size());
@@ -116,7 +116,7 @@ struct MtRefiner {
         ++st.visited_tets;
         const uint32_t c = creator(ts[t]);
         if (c == kNil) return;
-        const double err = m.updates_[current_update(c)].error;
+        const double err = m.splits_[current_update(c)].error;
         if (err > bound(tv[t], err)) {
             verts[c].wanted = verts[c].label;
             want_split(c);
@@ -136,8 +136,8 @@ struct MtRefiner {
     void split(uint32_t sv) {
         const uint32_t s = verts[sv].grid;
         const uint32_t k = current_update(sv);
-        const MtUpdate& u = m.updates_[k];
-        if (u.s != s) corrupt("survivor mismatch");
+        const MtSplit& u = m.splits_[k];
+        if (k < m.csr_start_[s] || k >= m.csr_start_[s + 1]) corrupt("survivor mismatch");
         const uint32_t w = u.w;
         if (slot_of.find(w) != mt::SlotMap::kAbsent) corrupt("inserted point already present");
         if (star.size() != u.star) corrupt("star size differs from the stored one");
@@ -224,7 +224,7 @@ struct MtRefiner {
             }
         for (uint32_t t = 0; t < tv.size(); ++t) check(t);
         uint64_t pops = 0;
-        const uint64_t max_pops = 64 * (uint64_t(m.updates_.size()) + 16) * 8;
+        const uint64_t max_pops = 64 * (uint64_t(m.splits_.size()) + 16) * 8;
         while (!heap.empty()) {
             if (++pops > max_pops) corrupt("refinement does not terminate");
             const auto [lab, g, p] = heap.top();
@@ -280,7 +280,7 @@ struct MtRefiner {
             const auto& v = ts[t];
             mesh.tets.push_back({vid[v[0]], vid[v[1]], vid[v[2]], vid[v[3]]});
             const uint32_t c = creator(v);
-            const double e = c == kNil ? 0.0 : m.updates_[current_update(c)].error;
+            const double e = c == kNil ? 0.0 : m.splits_[current_update(c)].error;
             const uint32_t lv = c == kNil ? m.max_label_ : m.max_label_ - verts[c].label;
             mesh.level.push_back(uint8_t(std::min<uint32_t>(lv, 255)));
             mesh.error.push_back(float(e));

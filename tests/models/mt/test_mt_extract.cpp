@@ -143,7 +143,7 @@ std::set<KeyTet> oracle_extract(const MtModel& m, const Volume& vol, const LodQu
     const MtHistory& h = *m.history();
     const uint32_t n = uint32_t(vol.count());
     const auto& ups = m.updates();
-    auto grid_of = [&](uint32_t node) { return node < n ? node : ups[h.update_of_node[node - n]].s; };
+    auto grid_of = [&](uint32_t node) { return node < n ? node : m.survivor(h.update_of_node[node - n]); };
     auto coord = [&](uint32_t g) {
         return std::array<int32_t, 3>{int32_t(g % vol.dims.x), int32_t(g / vol.dims.x % vol.dims.y),
                                       int32_t(g / (vol.dims.x * vol.dims.y))};
@@ -310,7 +310,7 @@ struct SpecExtractor {
         : m(model), q(query), X(model.dims().x), Y(model.dims().y) {
         const size_t n = size_t(model.dims().count());
         U.resize(n);
-        for (uint32_t k = 0; k < m.updates().size(); ++k) U[m.updates()[k].s].push_back(k);
+        for (uint32_t k = 0; k < m.updates().size(); ++k) U[m.survivor(k)].push_back(k);
         for (auto& l : U)
             std::sort(l.begin(), l.end(), [&](uint32_t a, uint32_t b) { return m.updates()[a].label < m.updates()[b].label; });
         pos.assign(n, -1);
@@ -323,7 +323,7 @@ struct SpecExtractor {
                u[2] * (v[0] * w[1] - v[1] * w[0]);
     }
     uint32_t label(uint32_t p) const { return pos[p] <= 0 ? 0 : m.updates()[U[p][pos[p] - 1]].label; }
-    const MtUpdate& current(uint32_t p) const { return m.updates()[U[p][pos[p] - 1]]; }
+    const MtSplit& current(uint32_t p) const { return m.updates()[U[p][pos[p] - 1]]; }
     int64_t creator(const std::array<uint32_t, 4>& t) const {
         uint32_t best = t[0];
         for (uint32_t v : t)
@@ -357,7 +357,7 @@ struct SpecExtractor {
         return out;
     }
     std::vector<uint32_t> split(uint32_t s) {  // §M5; returns the tets it produced
-        const MtUpdate& u = current(s);
+        const MtSplit& u = current(s);
         const uint32_t w = u.w;
         EXPECT_EQ(pos[w], -1);
         std::vector<uint32_t> st = star(s);
@@ -550,8 +550,8 @@ TEST(MtBuild, DeterministicRebuilds) {
         const MtModel a = MtModel::build(v), b = MtModel::build(v);
         ASSERT_EQ(a.updates().size(), b.updates().size());
         for (size_t k = 0; k < a.updates().size(); ++k) {
-            const MtUpdate &x = a.updates()[k], &y = b.updates()[k];
-            ASSERT_TRUE(x.w == y.w && x.s == y.s && x.label == y.label && x.star == y.star &&
+            const MtSplit &x = a.updates()[k], &y = b.updates()[k];
+            ASSERT_TRUE(x.w == y.w && a.survivor(k) == b.survivor(k) && x.label == y.label && x.star == y.star &&
                         std::memcmp(&x.error, &y.error, 4) == 0)
                 << "update " << k;
         }

@@ -64,13 +64,24 @@ struct MtBuildOptions {
     std::function<void(uint64_t done, uint64_t total)> progress;
 };
 
-/// One vertex split (the inverse of collapse w -> s), in node space. Its mask (one bit
-/// per tet of the star) is not here: masks are concatenated in the order of the
-/// updates, so the offset follows from the stars before it (MtModel::mask_offset),
-/// which keeps an update at 20 bytes.
+/// One vertex split (the inverse of collapse w -> s), in node space, as builders
+/// and decoders hand it to the model. Its mask (one bit per tet of the star) is not
+/// here: masks are concatenated in the order of the updates, so the offset follows
+/// from the stars before it (MtModel::mask_offset).
 struct MtUpdate {
     uint32_t w = 0;         // grid index of the point the split inserts
     uint32_t s = 0;         // grid index of the survivor (the split node sits here)
+    uint32_t label = 0;     // node label, >= 1 (leaves are 0)
+    float error = 0.0f;     // conservative error bound of the node's creation star
+    uint32_t star = 0;      // tets around the node at creation (= bits of its mask)
+};
+
+/// A vertex split as the model keeps it, 16 bytes: the survivor s of MtUpdate is
+/// implied by the group of updates it is stored in (MtModel::updates_at,
+/// MtModel::survivor), so it is not stored (4 bytes an update, about 4 bytes a
+/// grid point).
+struct MtSplit {
+    uint32_t w = 0;         // grid index of the point the split inserts
     uint32_t label = 0;     // node label, >= 1 (leaves are 0)
     float error = 0.0f;     // conservative error bound of the node's creation star
     uint32_t star = 0;      // tets around the node at creation (= bits of its mask)
@@ -114,14 +125,17 @@ public:
     /// The coarsest mesh, grid indices, positively oriented.
     const std::vector<std::array<uint32_t, 4>>& base_tets() const { return base_; }
     /// Updates grouped by survivor (ascending grid index), each group sorted by label:
-    /// the same order after build and after decoding (updates_at gives a group).
-    const std::vector<MtUpdate>& updates() const { return updates_; }
+    /// the same order after build and after decoding (updates_at gives a group,
+    /// survivor the group of one update).
+    const std::vector<MtSplit>& updates() const { return splits_; }
+    /// The survivor (grid index) of updates()[k]: a binary search over the groups.
+    uint32_t survivor(size_t k) const;
     const std::vector<uint64_t>& mask_bits() const { return mask_bits_; }
     /// First bit of the mask of updates()[k] in mask_bits(): a sampled prefix sum of the
     /// stars (one 64-bit start per 64 updates, then at most 63 stars added).
     uint64_t mask_offset(size_t k) const {
         uint64_t at = mask_start_[k >> 6];
-        for (size_t j = k & ~size_t(63); j < k; ++j) at += updates_[j].star;
+        for (size_t j = k & ~size_t(63); j < k; ++j) at += splits_[j].star;
         return at;
     }
     /// Bit `b` of mask_bits(): bit i of update k's mask is mask_bit(mask_offset(k) + i).
@@ -146,8 +160,8 @@ public:
 
     /// The updates whose survivor is grid point p, sorted by label: updates()[k] for k in
     /// [first_update_at(p), first_update_at(p + 1)).
-    std::span<const MtUpdate> updates_at(uint32_t p) const {
-        return {updates_.data() + csr_start_[p], updates_.data() + csr_start_[p + 1]};
+    std::span<const MtSplit> updates_at(uint32_t p) const {
+        return {splits_.data() + csr_start_[p], splits_.data() + csr_start_[p + 1]};
     }
     uint32_t first_update_at(uint32_t p) const { return csr_start_[p]; }
 
@@ -156,7 +170,8 @@ private:
 
     Volume field_;
     std::vector<std::array<uint32_t, 4>> base_;
-    std::vector<MtUpdate> updates_;
+    std::vector<MtUpdate> updates_;  // build and from_parts stage here; finalize moves them to splits_
+    std::vector<MtSplit> splits_;
     std::vector<uint64_t> mask_bits_;
     std::vector<uint64_t> mask_start_;  // mask offset of updates_[64 j]
     std::vector<uint32_t> csr_start_;   // updates_ of survivor p: [csr_start_[p], csr_start_[p + 1])
