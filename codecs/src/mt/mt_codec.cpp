@@ -20,6 +20,8 @@
 // Updates appear in raster order of their inserted point w, which is every grid
 // point that is not a vertex of the base mesh.
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 
@@ -214,10 +216,14 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     // over all streams costs 3-6 % more (its blocks straddle streams).
     uint64_t raw_size = 0;
     std::vector<uint8_t> z;
+    const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     for (const auto& st : s) {
         raw_size += 8 + st.size();
         std::vector<std::byte> frame;
         if (!st.empty()) frame = tlod::zstd_compress(std::as_bytes(std::span(st)), opt.zstd_level);
+        if (stats)
+            std::fprintf(stderr, "mt encode: stream %zu: %zu bytes raw, %zu stored\n", size_t(&st - s), st.size(),
+                         frame.size());
         put_le(z, st.size(), 8);
         put_le(z, frame.size(), 8);
         const auto* fb = reinterpret_cast<const uint8_t*>(frame.data());
