@@ -5,7 +5,8 @@
 // 3.2, compact table) an HT+MT and a lossy file written by `tetlod convert` from
 // the vectors' raw volumes (SOURCE_DATE_EPOCH=0): ht_mt_v3.2_u8_9x6x5_compact from
 // ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
-// ht_v3_i16_17x17x17_samples.raw --max-error 1%.
+// ht_v3_i16_17x17x17_samples.raw --max-error 1%. The format 3.3 vectors (lattice chunks) are
+// among the spec's test vectors copied here.
 #include <zlib.h>
 
 #include <cstdio>

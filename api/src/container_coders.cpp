@@ -22,6 +22,7 @@ std::string describe(const std::string& coder, uint32_t type) {
     if (coder == "ht-samples+zstd") return "the chunk's values in point order, one zstd frame (§6.4)";
     if (coder == "ht-samples") return "the chunk's values in point order, uncompressed (§6.4)";
     if (coder == "ht-zero-residual") return "every value equals its prediction: no bytes (§6.4)";
+    if (coder == "ht-lattice") return "multiples of the lossy step: their indices range coded (§6.4)";
     if (coder == "ht-range-v2")
         return field ? "neighbour prediction, adaptive range coder (§7.4-7.6)"
                      : "lattice-bound prediction, adaptive range coder (§8.3)";
@@ -45,6 +46,7 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
                     case 1: return "ht-constant";
                     case 2: return zstd_flagged(s) ? "ht-samples+zstd" : "ht-samples";
                     case 3: return "ht-zero-residual";
+                    case 4: return "ht-lattice";
                     default: return "unknown";
                 }
             }
@@ -63,9 +65,9 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
 
 std::string section_mode_name(const tlod::SectionInfo& s, int ht_residual_coding) {
     if (ht_residual_coding != 3 || (s.type != tlod::kSectionHtField && s.type != tlod::kSectionHtErrors)) return "";
-    static const char* const names[] = {"range", "constant", "samples", "zero-residual"};
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice"};
     const uint32_t m = tlod::section_mode(s.flags);
-    return m < 4 ? names[m] : "unknown";
+    return m < 5 ? names[m] : "unknown";
 }
 
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,

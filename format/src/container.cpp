@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -432,7 +433,12 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     const uint64_t required = header_.required_features | (compact ? kFeatureCompactTable : 0);
     // A file says the oldest version that has every feature it uses: files
     // with the full table stay 3.0 (3.1 when lossy), byte for byte.
-    const uint16_t minor = compact                                  ? kVersion3_2_Minor
+    // 3.3 when a section uses a chunk mode of 3.3 (spec §4.1, §6.4).
+    const bool modes_3_3 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
+        return section_mode(s.flags) >= kFirstChunkModeOf3_3;
+    });
+    const uint16_t minor = modes_3_3                                ? kVersion3_3_Minor
+                           : compact                                ? kVersion3_2_Minor
                            : (required & kFeatureLossy)             ? kVersion3_1_Minor
                                                                     : kVersion3_0_Minor;
     std::vector<std::byte> h;

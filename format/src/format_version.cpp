@@ -10,7 +10,7 @@
 
 namespace tetlod::tlod {
 
-const char* format_version_string() { return "tlod-format 3.2"; }
+const char* format_version_string() { return "tlod-format 3.3"; }
 
 uint64_t checksum64(std::span<const std::byte> bytes) {
     return XXH64(bytes.data(), bytes.size(), 0);

@@ -124,6 +124,19 @@ TEST(ContainerCoders, Version1Planes) {
     EXPECT_NE(row(info, "HT_FIELD")->description.find("§7.2"), std::string::npos);
 }
 
+TEST(ContainerCoders, Version3_3Lattice) {
+    // Every field chunk of this vector is in the lattice mode (spec §6.4, format 3.3).
+    const std::string path = std::string(TETLOD_SPEC_DIR) + "/test-vectors/ht_v3.3_f32_17x13x9_lattice.tlod";
+    const ContainerInfo info = inspect_container(path).take();
+    expect_partition(info);
+    EXPECT_EQ(info.ht_residual_coding, 3);
+    EXPECT_EQ(info.header.version_minor, 3);
+    ASSERT_NE(row(info, "HT_FIELD"), nullptr);
+    EXPECT_EQ(row(info, "HT_FIELD")->coder, "ht-lattice");
+    EXPECT_EQ(row(info, "HT_FIELD")->mode, "lattice");
+    EXPECT_NE(row(info, "HT_FIELD")->description.find("§6.4"), std::string::npos);
+}
+
 TEST(ContainerCoders, UnknownSectionsHaveTheirOwnRow) {
     std::vector<tlod::SectionInfo> secs(3);
     secs[0].type = tlod::kSectionMetadata;

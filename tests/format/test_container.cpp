@@ -5,6 +5,7 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -223,6 +224,39 @@ TEST(Robustness, EverySingleBitFlipIsDetected) {
                     << "byte " << i << " bit " << b << ": " << r.failure().message;
             }
     }
+}
+
+// The same edges for a lossy file whose field chunks are all in the lattice
+// mode (format 3.3, the spec's test vector): every prefix Truncated, every
+// single bit flip caught by a checksum (or a size field).
+TEST(Robustness, LatticeVectorPrefixesAndBitFlips) {
+    const std::string path = std::string(TETLOD_SPEC_DIR) + "/test-vectors/ht_v3.3_f32_17x13x9_lattice.tlod";
+    std::vector<std::byte> f;
+    {
+        std::FILE* fp = std::fopen(path.c_str(), "rb");
+        ASSERT_NE(fp, nullptr);
+        f.resize(4096);
+        f.resize(std::fread(f.data(), 1, f.size(), fp));
+        std::fclose(fp);
+    }
+    ASSERT_TRUE(decode_all(f).ok());
+    for (std::size_t n = 0; n < f.size(); ++n) {
+        auto r = decode_bytes(std::span<const std::byte>(f.data(), n));
+        ASSERT_FALSE(r.ok()) << n;
+        EXPECT_EQ(r.failure().code, ErrorCode::Truncated) << n << ": " << r.failure().message;
+    }
+    for (std::size_t i = 0; i < f.size(); ++i)
+        for (int b = 0; b < 8; ++b) {
+            auto g = f;
+            g[i] ^= std::byte(1u << b);
+            auto r = decode_all(g);
+            ASSERT_FALSE(r.ok()) << "byte " << i << " bit " << b;
+            const ErrorCode c = r.failure().code;
+            const bool size_field = (i >= 32 && i < 40) || (i >= 64 && i < 68);
+            ASSERT_TRUE(c == ErrorCode::ChecksumMismatch || c == ErrorCode::BadMagic ||
+                        (size_field && (c == ErrorCode::CorruptData || c == ErrorCode::Truncated)))
+                << "byte " << i << " bit " << b << ": " << r.failure().message;
+        }
 }
 
 TEST(Robustness, TrailingBytesRefused) {

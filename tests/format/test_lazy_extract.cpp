@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/models/query_region.hpp"
 #include "tlod_test_util.hpp"
 
@@ -113,6 +114,30 @@ INSTANTIATE_TEST_SUITE_P(Awkward, LazyExtractCases,
                                            Case{{40, 9, 23}, ValueType::F64, 1, false},
                                            Case{{21, 13, 6}, ValueType::I32, 3, true},
                                            Case{{65, 3, 5}, ValueType::U8, 2, false}));
+
+// Lossy files whose field chunks are in the lattice mode (format 3.3, §6.4):
+// each chunk decoded alone in its window through the cache, against the whole
+// decode (whose bounds include E, as the lazy reader's).
+TEST(LazyExtract, LossyLatticeChunks) {
+    for (ValueType t : {ValueType::F32, ValueType::F64, ValueType::I16}) {
+        Volume v = tlodtest::make_volume({29, 19, 23}, t, 13, /*specials=*/false);
+        const double e = 2.0;
+        quantize_volume(v, e);
+        ContainerWriter w;
+        HtEncodeOptions eo;
+        eo.brick_log2 = 1;
+        eo.zstd_level = 3;
+        eo.max_error = e;
+        eo.chunk_mode = 4;  // forced wherever it can code the chunk
+        encode_ht(HtModel::build(v), metadata_for_volume(v), w, eo);
+        const auto file = w.finish();
+        auto r = ContainerReader::from_memory(file);
+        int lattice = 0;
+        for (const auto& s : r->sections()) lattice += s.type == kSectionHtField && section_mode(s.flags) == 4;
+        ASSERT_GT(lattice, 0) << value_type_name(t);
+        check_container(file, std::string("lossy lattice ") + value_type_name(t));
+    }
+}
 
 TEST(LazyExtract, SpecTestVectorsOfEveryVersion) {
     const std::filesystem::path dir = std::filesystem::path(TETLOD_SPEC_DIR) / "test-vectors";

@@ -19,6 +19,7 @@
 #include <cmath>
 
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/format/container.hpp"
 #include "tlod_test_util.hpp"
@@ -43,6 +44,9 @@ struct Vector {
     /// Format 3.2: the vector's section table is the compact one (spec §4.4);
     /// the 3.0 vectors keep the full table, as they were written.
     bool compact = false;
+    /// Format 3.3: the field quantized to the lattice of this E (spec §5.1),
+    /// written LOSSY with field.max_error = E (0: lossless).
+    double max_error = 0;
 };
 
 // Named by model and format version.
@@ -62,7 +66,33 @@ const Vector kVectors[] = {
     {"ht_v3_u8_9x9x5_constant", {9, 9, 5}, ValueType::U8, false, true, Vector::Constant, 1},
     {"ht_v3.2_u8_33x20x9_sparse_compact", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse, -1, true},
     {"ht_v3.2_i16_17x17x17_compact", {17, 17, 17}, ValueType::I16, false, true, Vector::Noisy, -1, true},
+    {"ht_v3.3_f32_17x13x9_lattice", {17, 13, 9}, ValueType::F32, false, true, Vector::Noisy, 4, true, 0.75},
+    {"ht_v3.3_i16_17x17x17_lattice", {17, 17, 17}, ValueType::I16, false, true, Vector::Noisy, 4, true, 2.0},
 };
+
+/// Spec §6.4 (mode 4), read from the spec alone: the lattice step of a
+/// stated E, and whether a sample is the value of its own index.
+double spec_step(ValueType t, double e) {
+    return (t == ValueType::F32 || t == ValueType::F64) ? 2 * e : 2 * std::floor(std::min(e, 1099511627776.0)) + 1;
+}
+bool spec_on_lattice(ValueType t, const char* p, double s) {
+    if (t == ValueType::F32) {
+        float x;
+        std::memcpy(&x, p, 4);
+        double q = std::nearbyint(double(x) / s);
+        if (std::isnan(q)) q = 0;
+        q = std::clamp(q, -4503599627370496.0, 4503599627370496.0);
+        const float back = q == 0 ? 0.0f : float(q * s);
+        return std::memcmp(&back, &x, 4) == 0;
+    }
+    if (t == ValueType::I16) {
+        int16_t x;
+        std::memcpy(&x, p, 2);
+        return int64_t(x) % int64_t(s) == 0;
+    }
+    ADD_FAILURE() << "type not covered";
+    return false;
+}
 
 /// The vector's volume: the noisy test volume, or a sparse blob on zeros, or
 /// a linear ramp (its chunks mostly exact predictions: zero-residual), or a
@@ -87,12 +117,12 @@ Volume vector_volume(const Vector& v) {
 
 /// Sections per chunk mode (table Flags bits 8-11), HT_FIELD then HT_ERRORS.
 nlohmann::json chunk_modes(const tlod::ContainerReader& r) {
-    static const char* const names[] = {"range", "constant", "samples", "zero-residual"};
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice"};
     nlohmann::json j = nlohmann::json::object();
     for (const auto& s : r.sections())
         if (s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors) {
             const uint32_t m = tlod::section_mode(s.flags);
-            auto& slot = j[tlod::section_type_name(s.type)][m < 4 ? names[m] : "unknown"];
+            auto& slot = j[tlod::section_type_name(s.type)][m < 5 ? names[m] : "unknown"];
             slot = slot.is_null() ? 1 : slot.get<int>() + 1;
         }
     return j;
@@ -108,7 +138,7 @@ std::vector<char> slurp(const std::string& p) {
 std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m, const nlohmann::json& modes) {
     std::ostringstream o;
     o.precision(17);
-    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (!v.current ? "1.0" : v.compact ? "3.2" : "3.0") << "\",\n"
+    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (!v.current ? "1.0" : v.max_error > 0 ? "3.3" : v.compact ? "3.2" : "3.0") << "\",\n"
       << "  \"dims\": [" << m.dims.x << ", " << m.dims.y << ", " << m.dims.z << "],\n"
       << "  \"value_type\": \"" << value_type_name(m.type) << "\",\n"
       << "  \"spacing\": [" << m.spacing[0] << ", " << m.spacing[1] << ", " << m.spacing[2] << "],\n"
@@ -218,6 +248,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
         if (regen && v.current) {
             std::filesystem::create_directories(dir());
             Volume vol = vector_volume(v);
+            if (v.max_error > 0) quantize_volume(vol, v.max_error);
             vol.field_name = "density";
             vol.units = "e/A^3";
             vol.spacing = {0.5, 1.0, 2.0};
@@ -232,6 +263,7 @@ TEST(TestVectors, DecodeToTheirStoredContents) {
             eo.brick_log2 = 1;  // several bricks per cycle even at this size
             eo.chunk_mode = v.mode;
             eo.table = v.compact ? tlod::TableLayout::compact : tlod::TableLayout::full;
+            eo.max_error = v.max_error;
             write_ht_container(base + ".tlod", m, meta, eo);
             write_file_atomic(base + ".raw", vol.data.data(), vol.data.size());
             auto r = tlod::ContainerReader::open(base + ".tlod");
@@ -323,9 +355,15 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
                     std::memcpy(metadata.data(), f + off, raw);
             }
             if (le(8, 2) >= 3 && (type == 3 || type == 4)) {
-                const char* names[] = {"range", "constant", "samples", "zero-residual"};
+                const char* names[] = {"range", "constant", "samples", "zero-residual", "lattice"};
                 const uint64_t mode = (flags >> 8) & 15;
-                ASSERT_LT(mode, 4u) << "section " << i;
+                ASSERT_LT(mode, le(10, 2) >= 3 ? 5u : 4u) << "section " << i;  // lattice since 3.3
+                if (mode == 4) {  // a field mode of LOSSY files (required bit 2), stored raw, >= 5 bytes
+                    EXPECT_EQ(type, 3u) << "section " << i;
+                    EXPECT_TRUE((le(16, 8) >> 2) & 1) << "section " << i;
+                    EXPECT_EQ(flags & 1, 0u) << "section " << i;
+                    EXPECT_GE(stored, 5u) << "section " << i;
+                }
                 ++modes[type == 3 ? "HT_FIELD" : "HT_ERRORS"][names[mode]];
                 if (mode == 2) {  // samples: raw size = values x bytes, the frame's content size too
                     ASSERT_TRUE(flags & 1);
@@ -393,6 +431,16 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
         EXPECT_EQ(j["format_keys"]["field.name"].get<std::string>(), "density");
         EXPECT_EQ(j["format_keys"]["field.units"].get<std::string>(), "e/A^3");
         EXPECT_EQ(j["user_keys"]["sample.purpose"].get<std::string>(), "tlod test vector");
+        if (v.max_error > 0) {
+            // 3.3 lattice vectors: field.max_error as written, and every decoded
+            // sample (the .raw) on the lattice of §6.4 (mode 4 was forced on the
+            // quantized field, so every field chunk could take it).
+            const double e = std::strtod(j["format_keys"]["field.max_error"].get<std::string>().c_str(), nullptr);
+            EXPECT_EQ(e, v.type == ValueType::F32 ? v.max_error : std::floor(v.max_error));
+            const double s = spec_step(v.type, e);
+            for (std::size_t i = 0; i < raw.size(); i += w) EXPECT_TRUE(spec_on_lattice(v.type, &raw[i], s)) << i;
+            EXPECT_GT(modes["HT_FIELD"]["lattice"], 0);
+        }
         // Every key of the JSON is in the METADATA section, byte for byte.
         const std::string mtext(metadata.begin(), metadata.end());
         for (const char* list : {"format_keys", "user_keys"})

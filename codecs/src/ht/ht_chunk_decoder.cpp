@@ -84,7 +84,8 @@ Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLay
         const tlod::SectionInfo& fsi = r.sections()[c.field_section];
         const std::string fbad = dispatch_value_type(type, [&](auto tv) {
             using T = decltype(tv);
-            return decode_field_chunk_v3<T>(G, static_cast<T*>(field), c, tlod::section_mode(fsi.flags), *raw);
+            return decode_field_chunk_v3<T>(G, static_cast<T*>(field), c, tlod::section_mode(fsi.flags), *raw,
+                                            lattice_step<T>(L.max_error));
         });
         if (!fbad.empty()) return fail(ErrorCode::CorruptData, where(c.field_section) + fbad);
         if (!errors) return Failure{ErrorCode::Ok, {}};

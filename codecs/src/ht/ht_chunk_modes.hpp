@@ -5,7 +5,10 @@
 //   constant       every value of the chunk is the same: that one value;
 //   samples        the values themselves in point order, in a zstd frame
 //                  (the fallback: no chunk costs much more than zstd of it);
-//   zero-residual  (field only) every value equals its prediction: no bytes.
+//   zero-residual  (field only) every value equals its prediction: no bytes;
+//   lattice        (field only, lossy files, format 3.3) every value is a
+//                  multiple of the file's step: its indices range coded
+//                  (ht_lattice_chunk.hpp).
 // Range coding wins on most chunks; the others bound the cost of constant,
 // sparse and incompressible chunks, where the range coder loses to zstd.
 #include <algorithm>
@@ -15,6 +18,7 @@
 
 #include "ht_error_chunk_coder.hpp"
 #include "ht_field_chunk_coder.hpp"
+#include "ht_lattice_chunk.hpp"
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 
@@ -22,7 +26,13 @@ namespace tetlod::ht_detail {
 
 constexpr uint8_t kResidualChunkModes = 3;
 
-enum ChunkMode : uint32_t { kModeRange = 0, kModeConstant = 1, kModeSamples = 2, kModeZeroResidual = 3 };
+enum ChunkMode : uint32_t {
+    kModeRange = 0,
+    kModeConstant = 1,
+    kModeSamples = 2,
+    kModeZeroResidual = 3,
+    kModeLattice = 4,  // format 3.3
+};
 /// Spec §6.4: constant and zero-residual chunks hold at most 2^22 values, so
 /// a chunk (96 bytes of table entries at least) expands no more than a zstd frame.
 constexpr uint64_t kMaxModelledPoints = uint64_t{1} << 22;
@@ -33,6 +43,7 @@ inline const char* chunk_mode_name(uint32_t mode) {
         case kModeConstant: return "constant";
         case kModeSamples: return "samples";
         case kModeZeroResidual: return "zero-residual";
+        case kModeLattice: return "lattice";
         default: return "unknown";
     }
 }
@@ -75,6 +86,7 @@ inline bool all_equal(const std::vector<std::byte>& raw, int w) {
 struct ChunkModeChoice {
     int forced = -1;       // -1: the smallest; else this mode when it can code the chunk, range if not
     int zstd_level = 19;   // level of the samples mode's frames
+    double max_error = 0;  // the file's stated bound (spec §5.1): > 0 tries the lattice mode
 };
 
 /// Keeps the smaller of `best` and `cand` (the earlier one on a tie, so the
@@ -145,15 +157,30 @@ CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk&
         zero_residuals(G, v, c))
         return coded({}, kModeZeroResidual);
     if (o.forced == int(kModeZeroResidual)) return range;  // it cannot code the chunk
+    auto lattice = [&]() -> std::optional<CodedSection> {
+        const double step = lattice_step<T>(o.max_error);
+        if (!(step > 0)) return std::nullopt;
+        auto bytes = encode_lattice_chunk<T>(G, v, c, step);
+        if (!bytes) return std::nullopt;
+        return coded(std::move(*bytes), kModeLattice);
+    };
+    if (o.forced == int(kModeLattice)) {
+        auto l = lattice();
+        return l ? std::move(*l) : range;
+    }
     const auto raw = gather_chunk(G, c, w, [&](int64_t i) { return uint64_t(std::bit_cast<typename D::U>(v[i])); });
-    return choose_mode(std::move(range), raw, c.points, w, o);
+    CodedSection best = choose_mode(std::move(range), raw, c.points, w, o);
+    // Last, so a tie keeps the earlier modes (and a 3.3 file only when it pays).
+    if (o.forced < 0 && tlod::section_mode(best.flags) != kModeConstant)
+        if (auto l = lattice()) keep_smaller(best, std::move(*l));
+    return best;
 }
 
 template <class T>
 CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
                                    int m, ChunkModeChoice o) {
     if (c.diamonds == 0) return coded({}, kModeRange);
-    if (o.forced == int(kModeZeroResidual)) o.forced = int(kModeRange);  // a field-only mode
+    if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice)) o.forced = int(kModeRange);  // field-only modes
     CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
@@ -163,10 +190,11 @@ CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<cons
 
 /// Decodes a field chunk of coding 3 from its raw bytes (decompressed when
 /// the section is flagged ZSTD). The layout checked the sizes against the
-/// mode (§6.4). Returns an empty string or what is wrong.
+/// mode (§6.4); `lattice_step` is the file's (lattice_step<T>, 0 if none).
+/// Returns an empty string or what is wrong.
 template <class T>
 std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uint32_t mode,
-                                  std::span<const std::byte> in) {
+                                  std::span<const std::byte> in, double lattice_step) {
     using D = Dom<T>;
     using U = typename D::U;
     constexpr int w = int(sizeof(T));
@@ -199,6 +227,8 @@ std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uin
             walk_field_chunk(G, v, c, lat, put);
             return "";
         }
+        case kModeLattice:
+            return decode_lattice_chunk<T>(G, v, c, lattice_step, in);
         default:
             return "unknown chunk mode " + std::to_string(mode);
     }

@@ -14,12 +14,13 @@ namespace {
 
 /// Spec §6.4: what a coding-3 chunk section's mode requires of its sizes
 /// (range-mode sections then pass the coding-2 checks). `w`: bytes per value.
+/// `lattice`: the file has a lattice step (lossy, §6.4 mode 4).
 std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::SectionInfo& s, uint64_t n, uint64_t w,
-                                                                   bool field) {
+                                                                   bool field, bool lattice) {
     const uint32_t mode = tlod::section_mode(s.flags);
     const bool zstd = (s.flags & tlod::kSectionZstd) != 0;
     auto bad = [](std::string m) { return std::optional{std::pair{ErrorCode::CorruptData, std::move(m)}}; };
-    if (mode > kModeZeroResidual || (mode == kModeZeroResidual && !field))
+    if (mode > kModeLattice || ((mode == kModeZeroResidual || mode == kModeLattice) && !field))
         return std::optional{std::pair{ErrorCode::UnsupportedFeature,
                                        "unknown chunk mode " + std::to_string(mode) +
                                            (field ? "" : " for error codes")}};
@@ -30,6 +31,8 @@ std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::Se
     if (mode == kModeConstant && s.raw_size != w)
         return bad("constant chunk of " + std::to_string(s.raw_size) + " bytes, expected " + std::to_string(w));
     if (mode == kModeZeroResidual && s.raw_size != 0) return bad("zero-residual chunk with stored bytes");
+    if (mode == kModeLattice && !lattice)
+        return bad("lattice chunk in a file without a lattice step (not LOSSY, or an integer field.max_error below 1)");
     // n * w cannot overflow: n is a chunk's point count (< 2^35), w <= 8.
     if (mode == kModeSamples && s.raw_size != n * w)
         return bad("samples chunk of " + std::to_string(s.raw_size) + " raw bytes, the chunk's " + std::to_string(n) +
@@ -126,6 +129,9 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
     if (L.chunks.size() * 2 != known.size() - 2)
         return fail(ErrorCode::CorruptData, where + "extra sections after the last HT chunk");
     const int W = int(value_size(L.metadata.type));
+    const bool has_lattice = dispatch_value_type(L.metadata.type, [&](auto tv) {
+        return lattice_step<decltype(tv)>(L.max_error) > 0;
+    });
     for (std::size_t i = 0; i < L.chunks.size(); ++i) {
         HtChunk& c = L.chunks[i];
         c.field_section = known[2 + 2 * i];
@@ -154,9 +160,11 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
             const std::string sec = where + "section " + std::to_string(si) + ": ";
             if (L.residual_coding == kResidualChunkModes) {
                 if (auto bad = check_chunk_mode(s, count, si == c.field_section ? uint64_t(W) : 2,
-                                                si == c.field_section))
+                                                si == c.field_section, has_lattice))
                     return fail(bad->first, sec + bad->second);
-                if (tlod::section_mode(s.flags) != kModeRange) continue;
+                // Lattice streams are range-coder streams: the same size rules.
+                const uint32_t mode = tlod::section_mode(s.flags);
+                if (mode != kModeRange && mode != kModeLattice) continue;
             } else if (s.flags & tlod::kSectionModeMask) {
                 return fail(ErrorCode::CorruptData, sec + "chunk mode bits set in a file of residual coding " +
                                                         std::to_string(L.residual_coding));

@@ -35,6 +35,12 @@ inline constexpr uint16_t kVersion3_1_Minor = 1;
 /// 3.2: the compact section table (required feature bit 3, spec §4.4), the
 /// default of every writer. Files written with the full table stay 3.0/3.1.
 inline constexpr uint16_t kVersion3_2_Minor = 2;
+/// 3.3: HT chunk mode 4, lattice (spec §6.4), in lossy files. Written only by
+/// files with such a chunk: a 3.2 reader refuses it (unknown chunk mode).
+inline constexpr uint16_t kVersion3_3_Minor = 3;
+/// The first chunk mode (table Flags bits 8-11) of 3.3: a file with a section
+/// of this mode or above says 3.3.
+inline constexpr uint32_t kFirstChunkModeOf3_3 = 4;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).

@@ -30,8 +30,9 @@ struct HtEncodeOptions {
     /// bound exceeds the true error by less than a factor 1 + 2^-m.
     int error_mantissa_bits = 4;
     /// Chunk modes (spec §6.4): -1 codes every chunk section in the smallest
-    /// mode; 0 range, 1 constant, 2 samples, 3 zero-residual force that mode
-    /// wherever it can code the chunk (tests), range elsewhere.
+    /// mode; 0 range, 1 constant, 2 samples, 3 zero-residual, 4 lattice (field
+    /// chunks of lossy files whose values are all on the step's lattice, format
+    /// 3.3) force that mode wherever it can code the chunk (tests), range elsewhere.
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
