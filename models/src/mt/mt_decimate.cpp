@@ -123,6 +123,10 @@ struct BrickDecimator {
     struct StarFace {
         mt::CornerPlane plane;
         std::array<uint32_t, 3> o;
+        // For ranking targets by shape (filled only when they are ranked): the face's
+        // corners in physical coordinates and its shortest edge, which no target changes.
+        std::array<std::array<double, 3>, 3> phys;
+        double shortest;
     };
     std::vector<StarFace> faces;
 
@@ -546,6 +550,11 @@ struct BrickDecimator {
         const bool shaped = !all_cut || opt.max_shape_ratio > 0;
         const double cap2 = opt.max_shape_ratio * opt.max_shape_ratio;
         ranked.clear();
+        if (shaped)
+            for (StarFace& f : faces) {
+                for (int k = 0; k < 3; ++k) f.phys[size_t(k)] = physical(f.o[size_t(k)]);
+                f.shortest = mt::face_shortest_squared(f.phys[0], f.phys[1], f.phys[2]);
+            }
         for (uint32_t s : nbrs) {
             if ((point[w].planes & ~point[s].planes) != 0 || point[s].frozen) continue;
             const Pt cs = c(s);
@@ -558,12 +567,15 @@ struct BrickDecimator {
             if (!legal) continue;
             double q2 = 0;
             if (shaped) {
+                // The worst new tet; a target over the cap is refused as soon as one is.
                 const auto ps = physical(s);
+                const bool capped = opt.max_shape_ratio > 0;
                 for (const StarFace& f : faces)
-                    if (f.o[0] != s && f.o[1] != s && f.o[2] != s)
-                        q2 = std::max(q2, mt::shape_ratio_squared(ps, physical(f.o[0]), physical(f.o[1]),
-                                                                  physical(f.o[2])));
-                if (opt.max_shape_ratio > 0 && q2 > cap2) continue;
+                    if (f.o[0] != s && f.o[1] != s && f.o[2] != s) {
+                        q2 = std::max(q2, mt::shape_ratio_squared(ps, f.phys[0], f.phys[1], f.phys[2], f.shortest));
+                        if (capped && q2 > cap2) break;
+                    }
+                if (capped && q2 > cap2) continue;
             }
             ranked.push_back({std::sqrt(q2), s});
             if (all_cut) break;
