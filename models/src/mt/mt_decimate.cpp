@@ -117,12 +117,18 @@ struct BrickDecimator {
     // Scratch.
     std::vector<uint32_t> star_w, pts, pfrom, nbrs;
     std::vector<std::array<uint32_t, 4>> ntv;
+    // The new tets' numerators, computed when a point is first tested against the tet:
+    // an evaluation often leaves a target at its first points (cut above the cutoff).
     std::vector<Bary> nb;
+    std::vector<uint8_t> nb_ready;
+    std::vector<uint32_t> new_from;  // the star tet (index into star_w) a new tet comes from
+    Pt new_at{0, 0, 0};               // the target of the new tets
     std::vector<int> old2new;
     std::vector<std::pair<double, uint32_t>> ranked;
     struct StarFace {
         mt::CornerPlane plane;
-        std::array<uint32_t, 3> o;
+        std::array<uint32_t, 3> o;  // the corners other than w, in slot order
+        int slot;                   // w's slot in the tet
         // For ranking targets by shape (filled only when they are ranked): the face's
         // corners in physical coordinates and its shortest edge, which no target changes.
         std::array<std::array<double, 3>, 3> phys;
@@ -464,28 +470,58 @@ struct BrickDecimator {
 
     // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
     // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
-    bool make_new_tets(uint32_t w, uint32_t s) {
-        ntv.clear(), nb.clear();
-        old2new.assign(star_w.size(), -1);
+    /// faces[i]: the face of star_w[i] opposite w, with the tet's orientation as an
+    /// affine function of w's position (a target is legal for the tet iff it is > 0).
+    void star_faces(uint32_t w) {
+        faces.resize(star_w.size());
         for (size_t i = 0; i < star_w.size(); ++i) {
+            const auto& v = tets[star_w[i]].v;
+            StarFace& f = faces[i];
+            f.slot = slot_of(v, w);
+            f.plane = mt::corner_plane(pts_of(v), f.slot);
+            int k = 0;
+            for (int j = 0; j < 4; ++j)
+                if (j != f.slot) f.o[size_t(k++)] = v[size_t(j)];
+        }
+    }
+    // The face of each star tet opposite w (`faces`, from star_faces) gives one of a new
+    // tet's four numerators and its determinant (the orientation with w moved to s).
+    bool make_new_tets(uint32_t s) {
+        ntv.clear(), new_from.clear();
+        old2new.assign(star_w.size(), -1);
+        new_at = c(s);
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const StarFace& f = faces[i];
+            if (f.o[0] == s || f.o[1] == s || f.o[2] == s) continue;
+            if (f.plane.at(new_at) <= 0) return false;
             auto t = tets[star_w[i]].v;
-            if (slot_of(t, s) >= 0) continue;
-            t[slot_of(t, w)] = s;
-            Bary b;
-            b.set(pts_of(t));
-            if (b.det <= 0) return false;
-            nb.push_back(b);
+            t[size_t(f.slot)] = s;
             old2new[i] = int(ntv.size());
             ntv.push_back(t);
+            new_from.push_back(uint32_t(i));
         }
+        if (nb.size() < ntv.size()) nb.resize(ntv.size());
+        nb_ready.assign(ntv.size(), 0);
         return true;
     }
+    /// The numerators of new tet j (make_new_tets), computed on first use.
+    const Bary& bary(size_t j) {
+        Bary& b = nb[j];
+        if (!nb_ready[j]) {
+            const StarFace& f = faces[new_from[j]];
+            std::array<Pt, 4> p;
+            for (int k = 0; k < 4; ++k) p[size_t(k)] = k == f.slot ? new_at : c(ntv[j][size_t(k)]);
+            b.set_moved(p, f.slot, f.plane, f.plane.at(new_at));
+            nb_ready[j] = 1;
+        }
+        return b;
+    }
     // Index of the first new tet containing p (guess first), -1 if none.
-    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) const {
+    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) {
         const Pt q = c(p);
-        if (guess >= 0 && nb[guess].locate(q, d)) return guess;
-        for (size_t j = 0; j < nb.size(); ++j)
-            if (int(j) != guess && nb[j].locate(q, d)) return int(j);
+        if (guess >= 0 && bary(size_t(guess)).locate(q, d)) return guess;
+        for (size_t j = 0; j < ntv.size(); ++j)
+            if (int(j) != guess && bary(j).locate(q, d)) return int(j);
         return -1;
     }
 
@@ -523,22 +559,13 @@ struct BrickDecimator {
         // keeps every one positive) and its corners other than w. The neighbours are
         // collected with a flag in their point records (read for the planes anyway), cleared
         // once they are; their order does not matter (ranked is sorted).
-        faces.clear();
+        star_faces(w);
         nbrs.clear();
-        for (uint32_t t : star_w) {
-            const auto& v = tets[t].v;
-            const int sw = slot_of(v, w);
-            link_max = std::max(link_max, double(tets[t].ferr[sw]));
-            StarFace f;
-            f.plane = mt::corner_plane(pts_of(v), sw);
-            int k = 0;
-            for (int i = 0; i < 4; ++i) {
-                if (i == sw) continue;
-                const uint32_t u = v[i];
-                f.o[k++] = u;
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const StarFace& f = faces[i];
+            link_max = std::max(link_max, double(tets[star_w[i]].ferr[size_t(f.slot)]));
+            for (const uint32_t u : f.o)
                 if (!point[u].collected) point[u].collected = 1, nbrs.push_back(u);
-            }
-            faces.push_back(f);
         }
         for (uint32_t u : nbrs) point[u].collected = 0;
         // Rank the geometrically legal targets by shape first: a later target then
@@ -605,7 +632,7 @@ struct BrickDecimator {
                     n_pts += pts.size();
                     gathered = true;
                 }
-                make_new_tets(w, s);
+                make_new_tets(s);
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
                 for (size_t i = 0; i < pts.size(); ++i) {
@@ -615,7 +642,7 @@ struct BrickDecimator {
                         ok = false;
                         break;
                     }
-                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[j].det));
+                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[size_t(j)].det));
                     if (over_limit(cost)) {
                         over = true;
                         break;
@@ -660,7 +687,8 @@ struct BrickDecimator {
             });
             hist->before.push_back(std::move(before));
         }
-        if (!make_new_tets(w, s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
+        star_faces(w);
+        if (!make_new_tets(s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
         // Face errors inherited by the new tets (see the file comment).
         auto& nf = new_face_err;
         auto& ne = new_err;
@@ -710,7 +738,7 @@ struct BrickDecimator {
         // Relocate the points.
         auto account = [&](const Sample& x, int jj, const std::array<int64_t, 4>& dd) {
             bool exact = true;
-            const double dev = deviation(x, ntv[jj], dd, nb[jj].det, exact);
+            const double dev = deviation(x, ntv[jj], dd, bary(size_t(jj)).det, exact);
             if (dev > ne[jj]) ne[jj] = dev;
             if (!exact) nexact[jj] = false;
             const float fd = mt::round_up_float(dev, exact);
@@ -731,7 +759,7 @@ struct BrickDecimator {
                 std::array<int64_t, 4> d2;
                 const Pt cp = c(p);
                 for (size_t k = 0; k < ntv.size(); ++k)
-                    if (int(k) != j && nb[k].locate(cp, d2)) account(x, int(k), d2);
+                    if (int(k) != j && bary(k).locate(cp, d2)) account(x, int(k), d2);
             }
         }
         // A removed point on an edge of a new tet can be owned by a tet outside the star
@@ -755,7 +783,7 @@ struct BrickDecimator {
                         const uint32_t v = vertex_at(grid.index(q[0] - origin[0], q[1] - origin[1], q[2] - origin[2]));
                         if (v != kNil && point[v].alive && v != w) continue;  // a vertex: no deviation
                         std::array<int64_t, 4> dd;
-                        if (!nb[j].locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
+                        if (!bary(j).locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
                         account(sample_at(whole.index(q[0], q[1], q[2])), int(j), dd);
                     }
                 }

@@ -72,19 +72,32 @@ struct Bary {
     int64_t det = 0;
 
     void set(const std::array<Pt, 4>& v) {
-        // orient(p,a,b,c) = (a-p).N, N = (b-a)x(c-a): g = -N, h = a.N.
-        auto face = [&](int i, const Pt& a, const Pt& b, const Pt& c, int64_t sign) {
-            const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
-            const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
-            const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
-            g[i] = {-sign * nx, -sign * ny, -sign * nz};
-            h[i] = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
-        };
-        face(0, v[1], v[2], v[3], 1);
-        face(1, v[0], v[2], v[3], -1);
-        face(2, v[0], v[1], v[3], 1);
-        face(3, v[0], v[1], v[2], -1);
+        for (int i = 0; i < 4; ++i) set_face(v, i);
         det = orient(v[0], v[1], v[2], v[3]);
+    }
+    /// The same numerators for tet v whose corner k was just moved there from a tet that
+    /// had the same face opposite k: `opposite` is that face's corner_plane (it does not
+    /// depend on corner k) and `det` its value at v[k]. Exact integers, so equal to set(v).
+    void set_moved(const std::array<Pt, 4>& v, int k, const CornerPlane& opposite, int64_t det_at_k) {
+        for (int i = 0; i < 4; ++i)
+            if (i != k) set_face(v, i);
+        g[size_t(k)] = opposite.g;
+        h[size_t(k)] = opposite.h;
+        det = det_at_k;
+    }
+    // D_i: orient(p,a,b,c) = (a-p).N, N = (b-a)x(c-a): g = -N, h = a.N, over the face
+    // opposite corner i (as corner_plane, whose signs alternate with i the same way).
+    void set_face(const std::array<Pt, 4>& v, int i) {
+        static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+        const Pt& a = v[size_t(kFace[i][0])];
+        const Pt& b = v[size_t(kFace[i][1])];
+        const Pt& c = v[size_t(kFace[i][2])];
+        const int64_t sign = (i & 1) ? -1 : 1;
+        const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+        const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
+        const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
+        g[size_t(i)] = {-sign * nx, -sign * ny, -sign * nz};
+        h[size_t(i)] = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
     }
     int64_t eval(int i, const Pt& p) const {
         return g[i][0] * p[0] + g[i][1] * p[1] + g[i][2] * p[2] + h[i];
