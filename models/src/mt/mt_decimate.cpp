@@ -487,20 +487,24 @@ struct BrickDecimator {
     // The face of each star tet opposite w (`faces`, from star_faces) gives one of a new
     // tet's four numerators and its determinant (the orientation with w moved to s).
     bool make_new_tets(uint32_t s) {
-        ntv.clear(), new_from.clear();
-        old2new.assign(star_w.size(), -1);
+        // Sized once and cut to length: this runs for most targets an evaluation tries.
+        const size_t m = star_w.size();
+        ntv.resize(m), new_from.resize(m), old2new.resize(m);
+        if (nb.size() < m) nb.resize(m);
         new_at = c(s);
-        for (size_t i = 0; i < star_w.size(); ++i) {
+        size_t n = 0;
+        for (size_t i = 0; i < m; ++i) {
             const StarFace& f = faces[i];
+            old2new[i] = -1;
             if (f.o[0] == s || f.o[1] == s || f.o[2] == s) continue;
             if (f.plane.at(new_at) <= 0) return false;
-            auto t = tets[star_w[i]].v;
+            auto& t = ntv[n];
+            t = tets[star_w[i]].v;
             t[size_t(f.slot)] = s;
-            old2new[i] = int(ntv.size());
-            ntv.push_back(t);
-            new_from.push_back(uint32_t(i));
+            old2new[i] = int(n);
+            new_from[n++] = uint32_t(i);
         }
-        if (nb.size() < ntv.size()) nb.resize(ntv.size());
+        ntv.resize(n), new_from.resize(n);
         nb_ready.assign(ntv.size(), 0);
         return true;
     }
