@@ -908,6 +908,24 @@ struct BrickDecimator {
 
 }  // namespace
 
+size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& input) {
+    using D = BrickDecimator;
+    size_t box_points = 1, cells = 1;
+    for (int a = 0; a < 3; ++a)
+        box_points *= size_t(box.hi[a] - box.lo[a] + 1), cells *= size_t(box.hi[a] - box.lo[a]);
+    size_t tets = 0, owned = 0, vertices = 0;
+    if (input.empty()) {
+        tets = 5 * cells, vertices = box_points;
+    } else {
+        for (const BrickMesh* b : input) tets += b->tets, owned += b->points;
+        vertices = tets / 4;  // about 5-6 tets per vertex in a decimated mesh; a margin
+    }
+    // Per tet: its record and back links; per point its record; per vertex its state
+    // (first corner, stamp, heap sequence) and a heap entry; per box point a bit.
+    return tets * (sizeof(D::TetRec) + 4 * sizeof(uint32_t)) + (vertices + owned) * sizeof(D::PointRec) +
+           vertices * (3 * sizeof(uint32_t) + sizeof(Entry)) + box_points / 8 + box_points / 16;
+}
+
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
                            const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress) {
     BrickResult r;
