@@ -82,6 +82,7 @@ struct BrickDecimator {
         uint8_t frozen : 1 = 0;     // on a face of the brick inside the volume, or pinned
         uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
         uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
+        uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
@@ -430,10 +431,63 @@ struct BrickDecimator {
     }
     Link lw_, ls_;
     uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
+    /// Lk(s) cut to the simplices whose vertices are all vertices of Lk(w) (marked
+    /// `in_link`; ω when `omega`): a simplex of Lk(w) has only such vertices, so the
+    /// intersection with Lk(w), all link_ok counts, is that of the whole Lk(s), for
+    /// sorts of a few keys instead of the whole link. ω is a vertex of Lk(s) when s has
+    /// a boundary face; that needs every face of its star, so only when ω is in Lk(w).
+    void build_link_within(uint32_t s, bool omega, Link& L) const {
+        L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
+        auto& faces = L.faces;
+        faces.clear();
+        for_star(s, [&](uint32_t t, uint32_t slot) {
+            std::array<uint32_t, 3> o{};
+            int k = 0;
+            for (int i = 0; i < 4; ++i)
+                if (i != int(slot)) o[size_t(k++)] = tets[t].v[size_t(i)];
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            if (o[1] > o[2]) std::swap(o[1], o[2]);
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            const bool m0 = point[o[0]].in_link, m1 = point[o[1]].in_link, m2 = point[o[2]].in_link;
+            if (m0 && m1 && m2) L.v2.push_back(tri_key(o[0], o[1], o[2]));
+            if (m0 && m1) L.v1.push_back(edge_key(o[0], o[1]));
+            if (m0 && m2) L.v1.push_back(edge_key(o[0], o[2]));
+            if (m1 && m2) L.v1.push_back(edge_key(o[1], o[2]));
+            if (m0) L.v0.push_back(o[0]);
+            if (m1) L.v0.push_back(o[1]);
+            if (m2) L.v0.push_back(o[2]);
+            if (omega)
+                faces.push_back(edge_key(o[0], o[1])), faces.push_back(edge_key(o[0], o[2])),
+                    faces.push_back(edge_key(o[1], o[2]));
+        });
+        if (omega) {
+            std::sort(faces.begin(), faces.end());
+            for (size_t i = 0; i < faces.size();) {
+                size_t j = i;
+                while (j < faces.size() && faces[j] == faces[i]) ++j;
+                if (j - i == 1) L.bfaces.push_back(faces[i]);
+                i = j;
+            }
+            if (!L.bfaces.empty()) L.v0.push_back(kOmega);
+            for (const uint64_t f : L.bfaces) {
+                const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
+                const bool ma = point[a].in_link, mb = point[b].in_link;
+                if (ma) L.v1.push_back(edge_key(a, kOmega));
+                if (mb) L.v1.push_back(edge_key(b, kOmega));
+                if (ma && mb) L.v2.push_back(tri_key(a, b, kOmega));
+            }
+        }
+        sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+    }
     bool link_ok(uint32_t w, uint32_t s) {
         ++n_link;
         build_link(w, lw_);
-        build_link(s, ls_);
+        const bool omega = !lw_.v0.empty() && lw_.v0.back() == kOmega;
+        for (const uint32_t u : lw_.v0)
+            if (u != kOmega) point[u].in_link = 1;
+        build_link_within(s, omega, ls_);
+        for (const uint32_t u : lw_.v0)
+            if (u != kOmega) point[u].in_link = 0;
         // Link of edge ws.
         auto& e0 = e0_;
         auto& e1 = e1_;
