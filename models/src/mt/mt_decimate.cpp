@@ -523,7 +523,6 @@ struct BrickDecimator {
     }
 
     // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
-    // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
     /// faces[i]: the face of star_w[i] opposite w, with the tet's orientation as an
     /// affine function of w's position (a target is legal for the tet iff it is > 0).
     void star_faces(uint32_t w) {
@@ -538,8 +537,9 @@ struct BrickDecimator {
                 if (j != f.slot) f.o[size_t(k++)] = v[size_t(j)];
         }
     }
-    // The face of each star tet opposite w (`faces`, from star_faces) gives one of a new
-    // tet's four numerators and its determinant (the orientation with w moved to s).
+    // Builds the new tets of w -> s into ntv/new_from/old2new (star_faces(w) first);
+    // false if one is not positive. The face of each star tet opposite w gives one of a
+    // new tet's four numerators and its determinant (bary).
     bool make_new_tets(uint32_t s) {
         // Sized once and cut to length: this runs for most targets an evaluation tries.
         const size_t m = star_w.size();
