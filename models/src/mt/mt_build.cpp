@@ -17,8 +17,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <condition_variable>
 #include <malloc.h>
 #include <mutex>
+#include <optional>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -61,6 +63,53 @@ void release_free_heap() {
 double pass_error_cap(int pass, int passes, double range_span, double top) {
     return range_span * top * std::pow(8.0, -(passes - 2 - pass));
 }
+
+/// Bytes per grid point of the volume that the bricks running at once may hold
+/// together (brick_working_bytes); a brick alone is always admitted. Pass 1 of a volume
+/// that pass 0 could not decimate much has a few large bricks (generated 129³: about
+/// 680 k tets, ~70 MB each, for 2.1 M points): two of them at once set the build's
+/// peak, so they run one after the other. Smaller bricks still run side by side
+/// (bucky 128³'s pass 1: ~30 MB each). Results do not depend on it: they are merged in
+/// brick order.
+constexpr size_t kBrickBudgetPerPoint = 48;
+
+/// Lets a brick start when the bricks running leave room for it in the budget.
+class BrickAdmission {
+public:
+    explicit BrickAdmission(size_t budget) : budget_(budget) {}
+    /// Holds `bytes` of the budget from construction to destruction (also when the
+    /// brick throws: the others must not wait for it).
+    class Ticket {
+    public:
+        Ticket(BrickAdmission& a, size_t bytes) : a_(a), bytes_(bytes) { a_.enter(bytes_); }
+        ~Ticket() { a_.leave(bytes_); }
+        Ticket(const Ticket&) = delete;
+        Ticket& operator=(const Ticket&) = delete;
+
+    private:
+        BrickAdmission& a_;
+        size_t bytes_;
+    };
+
+private:
+    void enter(size_t bytes) {
+        std::unique_lock<std::mutex> lock(m_);
+        ready_.wait(lock, [&] { return running_ == 0 || held_ + bytes <= budget_; });
+        held_ += bytes, ++running_;
+    }
+    void leave(size_t bytes) {
+        {
+            std::lock_guard<std::mutex> lock(m_);
+            held_ -= bytes, --running_;
+        }
+        ready_.notify_all();
+    }
+
+    std::mutex m_;
+    std::condition_variable ready_;
+    size_t budget_, held_ = 0;
+    int running_ = 0;
+};
 
 }  // namespace
 
@@ -178,8 +227,11 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(r.mesh));
             r = mt::BrickResult{};
         };
+        BrickAdmission admission(kBrickBudgetPerPoint * size_t(n));
         arena.execute([&] {
             tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
+                std::optional<BrickAdmission::Ticket> ticket;
+                ticket.emplace(admission, mt::brick_working_bytes(boxes[b], inputs[b]));
                 const int now = ++in_flight;
                 for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
                 }
@@ -191,6 +243,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                     };
                 results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes, within);
                 --in_flight;
+                ticket.reset();
                 {
                     std::lock_guard<std::mutex> lock(merging);
                     finished[b] = 1;

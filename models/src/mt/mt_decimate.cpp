@@ -82,6 +82,7 @@ struct BrickDecimator {
         uint8_t frozen : 1 = 0;     // on a face of the brick inside the volume, or pinned
         uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
         uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
+        uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
@@ -117,12 +118,22 @@ struct BrickDecimator {
     // Scratch.
     std::vector<uint32_t> star_w, pts, pfrom, nbrs;
     std::vector<std::array<uint32_t, 4>> ntv;
+    // The new tets' numerators, computed when a point is first tested against the tet:
+    // an evaluation often leaves a target at its first points (cut above the cutoff).
     std::vector<Bary> nb;
+    std::vector<uint8_t> nb_ready;
+    std::vector<uint32_t> new_from;  // the star tet (index into star_w) a new tet comes from
+    Pt new_at{0, 0, 0};               // the target of the new tets
     std::vector<int> old2new;
     std::vector<std::pair<double, uint32_t>> ranked;
     struct StarFace {
         mt::CornerPlane plane;
-        std::array<uint32_t, 3> o;
+        std::array<uint32_t, 3> o;  // the corners other than w, in slot order
+        int slot;                   // w's slot in the tet
+        // For ranking targets by shape (filled only when they are ranked): the face's
+        // corners in physical coordinates and its shortest edge, which no target changes.
+        std::array<std::array<double, 3>, 3> phys;
+        double shortest;
     };
     std::vector<StarFace> faces;
 
@@ -420,10 +431,63 @@ struct BrickDecimator {
     }
     Link lw_, ls_;
     uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
+    /// Lk(s) cut to the simplices whose vertices are all vertices of Lk(w) (marked
+    /// `in_link`; ω when `omega`): a simplex of Lk(w) has only such vertices, so the
+    /// intersection with Lk(w), all link_ok counts, is that of the whole Lk(s), for
+    /// sorts of a few keys instead of the whole link. ω is a vertex of Lk(s) when s has
+    /// a boundary face; that needs every face of its star, so only when ω is in Lk(w).
+    void build_link_within(uint32_t s, bool omega, Link& L) const {
+        L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
+        auto& faces = L.faces;
+        faces.clear();
+        for_star(s, [&](uint32_t t, uint32_t slot) {
+            std::array<uint32_t, 3> o{};
+            int k = 0;
+            for (int i = 0; i < 4; ++i)
+                if (i != int(slot)) o[size_t(k++)] = tets[t].v[size_t(i)];
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            if (o[1] > o[2]) std::swap(o[1], o[2]);
+            if (o[0] > o[1]) std::swap(o[0], o[1]);
+            const bool m0 = point[o[0]].in_link, m1 = point[o[1]].in_link, m2 = point[o[2]].in_link;
+            if (m0 && m1 && m2) L.v2.push_back(tri_key(o[0], o[1], o[2]));
+            if (m0 && m1) L.v1.push_back(edge_key(o[0], o[1]));
+            if (m0 && m2) L.v1.push_back(edge_key(o[0], o[2]));
+            if (m1 && m2) L.v1.push_back(edge_key(o[1], o[2]));
+            if (m0) L.v0.push_back(o[0]);
+            if (m1) L.v0.push_back(o[1]);
+            if (m2) L.v0.push_back(o[2]);
+            if (omega)
+                faces.push_back(edge_key(o[0], o[1])), faces.push_back(edge_key(o[0], o[2])),
+                    faces.push_back(edge_key(o[1], o[2]));
+        });
+        if (omega) {
+            std::sort(faces.begin(), faces.end());
+            for (size_t i = 0; i < faces.size();) {
+                size_t j = i;
+                while (j < faces.size() && faces[j] == faces[i]) ++j;
+                if (j - i == 1) L.bfaces.push_back(faces[i]);
+                i = j;
+            }
+            if (!L.bfaces.empty()) L.v0.push_back(kOmega);
+            for (const uint64_t f : L.bfaces) {
+                const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
+                const bool ma = point[a].in_link, mb = point[b].in_link;
+                if (ma) L.v1.push_back(edge_key(a, kOmega));
+                if (mb) L.v1.push_back(edge_key(b, kOmega));
+                if (ma && mb) L.v2.push_back(tri_key(a, b, kOmega));
+            }
+        }
+        sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+    }
     bool link_ok(uint32_t w, uint32_t s) {
         ++n_link;
         build_link(w, lw_);
-        build_link(s, ls_);
+        const bool omega = !lw_.v0.empty() && lw_.v0.back() == kOmega;
+        for (const uint32_t u : lw_.v0)
+            if (u != kOmega) point[u].in_link = 1;
+        build_link_within(s, omega, ls_);
+        for (const uint32_t u : lw_.v0)
+            if (u != kOmega) point[u].in_link = 0;
         // Link of edge ws.
         auto& e0 = e0_;
         auto& e1 = e1_;
@@ -459,29 +523,63 @@ struct BrickDecimator {
     }
 
     // ---- candidate evaluation (docs/mt.md §2, "Order") -----------------------
-    // Builds the new tets of w -> s into ntv/nb/old2new; false if one is not positive.
-    bool make_new_tets(uint32_t w, uint32_t s) {
-        ntv.clear(), nb.clear();
-        old2new.assign(star_w.size(), -1);
+    /// faces[i]: the face of star_w[i] opposite w, with the tet's orientation as an
+    /// affine function of w's position (a target is legal for the tet iff it is > 0).
+    void star_faces(uint32_t w) {
+        faces.resize(star_w.size());
         for (size_t i = 0; i < star_w.size(); ++i) {
-            auto t = tets[star_w[i]].v;
-            if (slot_of(t, s) >= 0) continue;
-            t[slot_of(t, w)] = s;
-            Bary b;
-            b.set(pts_of(t));
-            if (b.det <= 0) return false;
-            nb.push_back(b);
-            old2new[i] = int(ntv.size());
-            ntv.push_back(t);
+            const auto& v = tets[star_w[i]].v;
+            StarFace& f = faces[i];
+            f.slot = slot_of(v, w);
+            f.plane = mt::corner_plane(pts_of(v), f.slot);
+            int k = 0;
+            for (int j = 0; j < 4; ++j)
+                if (j != f.slot) f.o[size_t(k++)] = v[size_t(j)];
         }
+    }
+    // Builds the new tets of w -> s into ntv/new_from/old2new (star_faces(w) first);
+    // false if one is not positive. The face of each star tet opposite w gives one of a
+    // new tet's four numerators and its determinant (bary).
+    bool make_new_tets(uint32_t s) {
+        // Sized once and cut to length: this runs for most targets an evaluation tries.
+        const size_t m = star_w.size();
+        ntv.resize(m), new_from.resize(m), old2new.resize(m);
+        if (nb.size() < m) nb.resize(m);
+        new_at = c(s);
+        size_t n = 0;
+        for (size_t i = 0; i < m; ++i) {
+            const StarFace& f = faces[i];
+            old2new[i] = -1;
+            if (f.o[0] == s || f.o[1] == s || f.o[2] == s) continue;
+            if (f.plane.at(new_at) <= 0) return false;
+            auto& t = ntv[n];
+            t = tets[star_w[i]].v;
+            t[size_t(f.slot)] = s;
+            old2new[i] = int(n);
+            new_from[n++] = uint32_t(i);
+        }
+        ntv.resize(n), new_from.resize(n);
+        nb_ready.assign(ntv.size(), 0);
         return true;
     }
+    /// The numerators of new tet j (make_new_tets), computed on first use.
+    const Bary& bary(size_t j) {
+        Bary& b = nb[j];
+        if (!nb_ready[j]) {
+            const StarFace& f = faces[new_from[j]];
+            std::array<Pt, 4> p;
+            for (int k = 0; k < 4; ++k) p[size_t(k)] = k == f.slot ? new_at : c(ntv[j][size_t(k)]);
+            b.set_moved(p, f.slot, f.plane, f.plane.at(new_at));
+            nb_ready[j] = 1;
+        }
+        return b;
+    }
     // Index of the first new tet containing p (guess first), -1 if none.
-    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) const {
+    int locate(uint32_t p, int guess, std::array<int64_t, 4>& d) {
         const Pt q = c(p);
-        if (guess >= 0 && nb[guess].locate(q, d)) return guess;
-        for (size_t j = 0; j < nb.size(); ++j)
-            if (int(j) != guess && nb[j].locate(q, d)) return int(j);
+        if (guess >= 0 && bary(size_t(guess)).locate(q, d)) return guess;
+        for (size_t j = 0; j < ntv.size(); ++j)
+            if (int(j) != guess && bary(j).locate(q, d)) return int(j);
         return -1;
     }
 
@@ -519,22 +617,13 @@ struct BrickDecimator {
         // keeps every one positive) and its corners other than w. The neighbours are
         // collected with a flag in their point records (read for the planes anyway), cleared
         // once they are; their order does not matter (ranked is sorted).
-        faces.clear();
+        star_faces(w);
         nbrs.clear();
-        for (uint32_t t : star_w) {
-            const auto& v = tets[t].v;
-            const int sw = slot_of(v, w);
-            link_max = std::max(link_max, double(tets[t].ferr[sw]));
-            StarFace f;
-            f.plane = mt::corner_plane(pts_of(v), sw);
-            int k = 0;
-            for (int i = 0; i < 4; ++i) {
-                if (i == sw) continue;
-                const uint32_t u = v[i];
-                f.o[k++] = u;
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const StarFace& f = faces[i];
+            link_max = std::max(link_max, double(tets[star_w[i]].ferr[size_t(f.slot)]));
+            for (const uint32_t u : f.o)
                 if (!point[u].collected) point[u].collected = 1, nbrs.push_back(u);
-            }
-            faces.push_back(f);
         }
         for (uint32_t u : nbrs) point[u].collected = 0;
         // Rank the geometrically legal targets by shape first: a later target then
@@ -546,6 +635,11 @@ struct BrickDecimator {
         const bool shaped = !all_cut || opt.max_shape_ratio > 0;
         const double cap2 = opt.max_shape_ratio * opt.max_shape_ratio;
         ranked.clear();
+        if (shaped)
+            for (StarFace& f : faces) {
+                for (int k = 0; k < 3; ++k) f.phys[size_t(k)] = physical(f.o[size_t(k)]);
+                f.shortest = mt::face_shortest_squared(f.phys[0], f.phys[1], f.phys[2]);
+            }
         for (uint32_t s : nbrs) {
             if ((point[w].planes & ~point[s].planes) != 0 || point[s].frozen) continue;
             const Pt cs = c(s);
@@ -558,12 +652,15 @@ struct BrickDecimator {
             if (!legal) continue;
             double q2 = 0;
             if (shaped) {
+                // The worst new tet; a target over the cap is refused as soon as one is.
                 const auto ps = physical(s);
+                const bool capped = opt.max_shape_ratio > 0;
                 for (const StarFace& f : faces)
-                    if (f.o[0] != s && f.o[1] != s && f.o[2] != s)
-                        q2 = std::max(q2, mt::shape_ratio_squared(ps, physical(f.o[0]), physical(f.o[1]),
-                                                                  physical(f.o[2])));
-                if (opt.max_shape_ratio > 0 && q2 > cap2) continue;
+                    if (f.o[0] != s && f.o[1] != s && f.o[2] != s) {
+                        q2 = std::max(q2, mt::shape_ratio_squared(ps, f.phys[0], f.phys[1], f.phys[2], f.shortest));
+                        if (capped && q2 > cap2) break;
+                    }
+                if (capped && q2 > cap2) continue;
             }
             ranked.push_back({std::sqrt(q2), s});
             if (all_cut) break;
@@ -593,7 +690,7 @@ struct BrickDecimator {
                     n_pts += pts.size();
                     gathered = true;
                 }
-                make_new_tets(w, s);
+                make_new_tets(s);
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
                 for (size_t i = 0; i < pts.size(); ++i) {
@@ -603,7 +700,7 @@ struct BrickDecimator {
                         ok = false;
                         break;
                     }
-                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[j].det));
+                    cost = std::max(cost, quick_deviation(pts[i], ntv[j], d, nb[size_t(j)].det));
                     if (over_limit(cost)) {
                         over = true;
                         break;
@@ -648,7 +745,8 @@ struct BrickDecimator {
             });
             hist->before.push_back(std::move(before));
         }
-        if (!make_new_tets(w, s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
+        star_faces(w);
+        if (!make_new_tets(s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
         // Face errors inherited by the new tets (see the file comment).
         auto& nf = new_face_err;
         auto& ne = new_err;
@@ -698,7 +796,7 @@ struct BrickDecimator {
         // Relocate the points.
         auto account = [&](const Sample& x, int jj, const std::array<int64_t, 4>& dd) {
             bool exact = true;
-            const double dev = deviation(x, ntv[jj], dd, nb[jj].det, exact);
+            const double dev = deviation(x, ntv[jj], dd, bary(size_t(jj)).det, exact);
             if (dev > ne[jj]) ne[jj] = dev;
             if (!exact) nexact[jj] = false;
             const float fd = mt::round_up_float(dev, exact);
@@ -719,7 +817,7 @@ struct BrickDecimator {
                 std::array<int64_t, 4> d2;
                 const Pt cp = c(p);
                 for (size_t k = 0; k < ntv.size(); ++k)
-                    if (int(k) != j && nb[k].locate(cp, d2)) account(x, int(k), d2);
+                    if (int(k) != j && bary(k).locate(cp, d2)) account(x, int(k), d2);
             }
         }
         // A removed point on an edge of a new tet can be owned by a tet outside the star
@@ -743,7 +841,7 @@ struct BrickDecimator {
                         const uint32_t v = vertex_at(grid.index(q[0] - origin[0], q[1] - origin[1], q[2] - origin[2]));
                         if (v != kNil && point[v].alive && v != w) continue;  // a vertex: no deviation
                         std::array<int64_t, 4> dd;
-                        if (!nb[j].locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
+                        if (!bary(j).locate(q, dd)) throw Error(ErrorCode::CorruptData, "mt build: internal error (edge point)");
                         account(sample_at(whole.index(q[0], q[1], q[2])), int(j), dd);
                     }
                 }
@@ -863,6 +961,24 @@ struct BrickDecimator {
 };
 
 }  // namespace
+
+size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& input) {
+    using D = BrickDecimator;
+    size_t box_points = 1, cells = 1;
+    for (int a = 0; a < 3; ++a)
+        box_points *= size_t(box.hi[a] - box.lo[a] + 1), cells *= size_t(box.hi[a] - box.lo[a]);
+    size_t tets = 0, owned = 0, vertices = 0;
+    if (input.empty()) {
+        tets = 5 * cells, vertices = box_points;
+    } else {
+        for (const BrickMesh* b : input) tets += b->tets, owned += b->points;
+        vertices = tets / 4;  // about 5-6 tets per vertex in a decimated mesh; a margin
+    }
+    // Per tet: its record and back links; per point its record; per vertex its state
+    // (first corner, stamp, heap sequence) and a heap entry; per box point a bit.
+    return tets * (sizeof(D::TetRec) + 4 * sizeof(uint32_t)) + (vertices + owned) * sizeof(D::PointRec) +
+           vertices * (3 * sizeof(uint32_t) + sizeof(Entry)) + box_points / 8 + box_points / 16;
+}
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
                            const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress) {

@@ -54,6 +54,11 @@ struct BrickResult {
 using BrickProgress = std::function<void(uint64_t, uint64_t)>;
 inline constexpr uint64_t kCollapsesPerReport = 4096;
 
+/// An estimate of the bytes decimate_brick holds while it runs on `input` (or on the
+/// reference mesh of `box` when `input` is empty): its tets, points, per-vertex state
+/// and heap. The build admits bricks against a budget with it; it changes no result.
+size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& input);
+
 /// Decimates the brick. `input`: the tets of the brick (the previous pass's tets that
 /// lie in its box, in a fixed order), emptied once read; empty: start from the
 /// reference mesh of the box. Deterministic: the result depends only on the arguments

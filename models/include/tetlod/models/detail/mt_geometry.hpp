@@ -72,19 +72,32 @@ struct Bary {
     int64_t det = 0;
 
     void set(const std::array<Pt, 4>& v) {
-        // orient(p,a,b,c) = (a-p).N, N = (b-a)x(c-a): g = -N, h = a.N.
-        auto face = [&](int i, const Pt& a, const Pt& b, const Pt& c, int64_t sign) {
-            const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
-            const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
-            const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
-            g[i] = {-sign * nx, -sign * ny, -sign * nz};
-            h[i] = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
-        };
-        face(0, v[1], v[2], v[3], 1);
-        face(1, v[0], v[2], v[3], -1);
-        face(2, v[0], v[1], v[3], 1);
-        face(3, v[0], v[1], v[2], -1);
+        for (int i = 0; i < 4; ++i) set_face(v, i);
         det = orient(v[0], v[1], v[2], v[3]);
+    }
+    /// The same numerators for tet v whose corner k was just moved there from a tet that
+    /// had the same face opposite k: `opposite` is that face's corner_plane (it does not
+    /// depend on corner k) and `det` its value at v[k]. Exact integers, so equal to set(v).
+    void set_moved(const std::array<Pt, 4>& v, int k, const CornerPlane& opposite, int64_t det_at_k) {
+        for (int i = 0; i < 4; ++i)
+            if (i != k) set_face(v, i);
+        g[size_t(k)] = opposite.g;
+        h[size_t(k)] = opposite.h;
+        det = det_at_k;
+    }
+    // D_i: orient(p,a,b,c) = (a-p).N, N = (b-a)x(c-a): g = -N, h = a.N, over the face
+    // opposite corner i (as corner_plane, whose signs alternate with i the same way).
+    void set_face(const std::array<Pt, 4>& v, int i) {
+        static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+        const Pt& a = v[size_t(kFace[i][0])];
+        const Pt& b = v[size_t(kFace[i][1])];
+        const Pt& c = v[size_t(kFace[i][2])];
+        const int64_t sign = (i & 1) ? -1 : 1;
+        const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+        const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
+        const int64_t nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
+        g[size_t(i)] = {-sign * nx, -sign * ny, -sign * nz};
+        h[size_t(i)] = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
     }
     int64_t eval(int i, const Pt& p) const {
         return g[i][0] * p[0] + g[i][1] * p[1] + g[i][2] * p[2] + h[i];
@@ -133,31 +146,50 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const 
 /// query's region test (tet_box_intersection.hpp).
 using tetlod::geometry::tet_meets_box;
 
+namespace detail {
+inline std::array<double, 3> sub3(const std::array<double, 3>& u, const std::array<double, 3>& v) {
+    return {u[0] - v[0], u[1] - v[1], u[2] - v[2]};
+}
+inline double dot3(const std::array<double, 3>& u, const std::array<double, 3>& v) {
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+}
+}  // namespace detail
+
+/// The squared length of the shortest edge of triangle p1 p2 p3: the part of
+/// shape_ratio_squared that does not depend on p0, so a builder ranking many apexes
+/// over one face computes it once.
+inline double face_shortest_squared(const std::array<double, 3>& p1, const std::array<double, 3>& p2,
+                                    const std::array<double, 3>& p3) {
+    const auto e12 = detail::sub3(p2, p1), e13 = detail::sub3(p3, p1), e23 = detail::sub3(p3, p2);
+    return std::min({detail::dot3(e12, e12), detail::dot3(e13, e13), detail::dot3(e23, e23)});
+}
+
+/// shape_ratio_squared with the face's shortest edge given (face_shortest_squared of
+/// p1 p2 p3): the same value, bit for bit (a minimum does not depend on its grouping).
+inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::array<double, 3>& p1,
+                                  const std::array<double, 3>& p2, const std::array<double, 3>& p3,
+                                  double face_shortest) {
+    auto cross = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
+        return std::array<double, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                                     u[0] * v[1] - u[1] * v[0]};
+    };
+    const auto a = detail::sub3(p1, p0), b = detail::sub3(p2, p0), c = detail::sub3(p3, p0);
+    const auto bc = cross(b, c), ca = cross(c, a), ab = cross(a, b);
+    const double den = 2.0 * detail::dot3(a, bc);
+    const double la = detail::dot3(a, a), lb = detail::dot3(b, b), lc = detail::dot3(c, c);
+    std::array<double, 3> o;
+    for (int k = 0; k < 3; ++k) o[k] = la * bc[k] + lb * ca[k] + lc * ab[k];
+    const double shortest = std::min(std::min({la, lb, lc}), face_shortest);
+    return detail::dot3(o, o) / (den * den * shortest);
+}
+
 /// The square of a tet's circumradius / shortest edge ratio, from physical coordinates:
 /// one division and no square root, for ranking many candidate tets (the order of
 /// squares is the order of ratios; regular tet: 6/16). The tet must be positively
 /// oriented (den > 0).
 inline double shape_ratio_squared(const std::array<double, 3>& p0, const std::array<double, 3>& p1,
                                   const std::array<double, 3>& p2, const std::array<double, 3>& p3) {
-    auto sub = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return std::array<double, 3>{u[0] - v[0], u[1] - v[1], u[2] - v[2]};
-    };
-    auto dot = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    };
-    auto cross = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-        return std::array<double, 3>{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                                     u[0] * v[1] - u[1] * v[0]};
-    };
-    const auto a = sub(p1, p0), b = sub(p2, p0), c = sub(p3, p0);
-    const auto bc = cross(b, c), ca = cross(c, a), ab = cross(a, b);
-    const double den = 2.0 * dot(a, bc);
-    const double la = dot(a, a), lb = dot(b, b), lc = dot(c, c);
-    std::array<double, 3> o;
-    for (int k = 0; k < 3; ++k) o[k] = la * bc[k] + lb * ca[k] + lc * ab[k];
-    const auto e12 = sub(p2, p1), e13 = sub(p3, p1), e23 = sub(p3, p2);
-    const double shortest = std::min({la, lb, lc, dot(e12, e12), dot(e13, e13), dot(e23, e23)});
-    return dot(o, o) / (den * den * shortest);
+    return shape_ratio_squared(p0, p1, p2, p3, face_shortest_squared(p1, p2, p3));
 }
 
 
