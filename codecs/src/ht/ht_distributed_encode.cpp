@@ -40,7 +40,7 @@ RowSpan row_span(const Geometry& G, HtBrickRow r) {
     s.nrows = G.bricks(r.t)[2];
     if (r.row < 0 || r.row >= s.nrows) throw Error(ErrorCode::InvalidArgument, "HT row: row out of range");
     s.lo = r.row * s.side;
-    s.hi = std::min(zmax, (r.row + 1) * s.side - 1);
+    s.hi = r.row + 1 == s.nrows ? zmax : std::min(zmax, (r.row + 1) * s.side - 1);
     s.wlo = std::max<int64_t>(0, s.lo - s.h);
     s.whi = std::min(zmax, s.hi + s.h);
     return s;

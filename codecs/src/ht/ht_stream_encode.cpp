@@ -233,7 +233,9 @@ private:
         Geometry window;            // the coders' view of the buffer
 
         int64_t row_lo() const { return row * side; }
-        int64_t row_hi(int64_t zmax) const { return std::min(zmax, (row + 1) * side - 1); }
+        /// The last row also holds plane zmax when zmax is a multiple of the side
+        /// (bricks are closed boxes: the last one's far face is that plane).
+        int64_t row_hi(int64_t zmax) const { return row + 1 == nrows ? zmax : std::min(zmax, (row + 1) * side - 1); }
     };
 
     // ---- pass 1 ----
