@@ -402,14 +402,7 @@ struct BrickDecimator {
             L.v0.push_back(o[0]), L.v0.push_back(o[1]), L.v0.push_back(o[2]);
             faces.push_back(e01), faces.push_back(e02), faces.push_back(e12);
         });
-        // A face (v,a,b) of one tet only is on the boundary.
-        std::sort(faces.begin(), faces.end());
-        for (size_t i = 0; i < faces.size();) {
-            size_t j = i;
-            while (j < faces.size() && faces[j] == faces[i]) ++j;
-            if (j - i == 1) L.bfaces.push_back(faces[i]);
-            i = j;
-        }
+        boundary_faces(faces, L.bfaces);
         if (!L.bfaces.empty()) L.v0.push_back(kOmega);
         for (const uint64_t f : L.bfaces) {
             const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
@@ -417,6 +410,17 @@ struct BrickDecimator {
             L.v2.push_back(tri_key(a, b, kOmega));
         }
         sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+    }
+    /// The faces (v, a, b) of the star around v, as edge keys of (a, b): those of one
+    /// tet only are on the boundary. Sorts `faces`; appends the boundary ones to `out`.
+    static void boundary_faces(std::vector<uint64_t>& faces, std::vector<uint64_t>& out) {
+        std::sort(faces.begin(), faces.end());
+        for (size_t i = 0; i < faces.size();) {
+            size_t j = i;
+            while (j < faces.size() && faces[j] == faces[i]) ++j;
+            if (j - i == 1) out.push_back(faces[i]);
+            i = j;
+        }
     }
     /// |x ∩ y| for sorted unique ranges, stopping once it exceeds `limit`.
     template <class T>
@@ -461,13 +465,7 @@ struct BrickDecimator {
                     faces.push_back(edge_key(o[1], o[2]));
         });
         if (omega) {
-            std::sort(faces.begin(), faces.end());
-            for (size_t i = 0; i < faces.size();) {
-                size_t j = i;
-                while (j < faces.size() && faces[j] == faces[i]) ++j;
-                if (j - i == 1) L.bfaces.push_back(faces[i]);
-                i = j;
-            }
+            boundary_faces(faces, L.bfaces);
             if (!L.bfaces.empty()) L.v0.push_back(kOmega);
             for (const uint64_t f : L.bfaces) {
                 const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
