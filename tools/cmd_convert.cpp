@@ -27,6 +27,7 @@ struct ConvertArgs {
     int level = 19;
     int brick_log2 = 4;
     int error_bits = 4;
+    int mt_error_bits = 7;
     double max_shape_ratio = kDefaultMtMaxShapeRatio;
     std::string model = "ht";
     std::string max_error;  // empty: lossless
@@ -109,6 +110,7 @@ int run_convert(const ConvertArgs& a) {
     wo.zstd_level = a.level;
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
+    wo.mt_error_bits = a.mt_error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
     wo.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
     if (max_error && max_error->value > 0) {
@@ -220,7 +222,13 @@ const CommandRegistration registration{Command{
             ->check(CLI::Range(1, 16))
             ->group(g);
         sub.add_option("--error-bits", a->error_bits,
-                       "Mantissa bits of stored error bounds (bound <= error * (1 + 2^-N))")
+                       "HT: mantissa bits of stored error bounds (bound <= error * (1 + 2^-N))")
+            ->capture_default_str()
+            ->check(CLI::Range(0, 7))
+            ->group(g);
+        sub.add_option("--mt-error-bits", a->mt_error_bits,
+                       "MT: mantissa bits of stored error bounds (bound <= error * (1 + 2^-N)); "
+                       "fewer store less for a few % more tets per LOD")
             ->capture_default_str()
             ->check(CLI::Range(0, 7))
             ->group(g);

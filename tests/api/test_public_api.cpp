@@ -138,6 +138,48 @@ TEST(PublicApi, BuildWriteOpenQueryMeasure) {
     EXPECT_GT(fs::file_size(vtu), 0u);
 }
 
+// --mt-error-bits: the MT's stored bounds are rounded up to fewer mantissa
+// bits, so the file shrinks while every LOD still honours its error against
+// the volume at every grid point (never fewer tets than the finer bounds give).
+TEST(PublicApi, MtErrorBitsRoundStoredBoundsUp) {
+    const Volume volume = make_sample_volume("multiscale", Dims{21, 19, 17});
+    const std::string fine = tmp("mt_bits7.tlod"), coarse = tmp("mt_bits3.tlod");
+    ContainerWriteOptions wo;
+    wo.ht = false;
+    wo.mt = true;
+    write_container(volume, fine, wo);
+    wo.mt_error_bits = 3;
+    write_container(volume, coarse, wo);
+    EXPECT_EQ(inspect_container(fine).take().mt->error_mantissa_bits, 7);
+    EXPECT_EQ(inspect_container(coarse).take().mt->error_mantissa_bits, 3);
+    EXPECT_LT(fs::file_size(coarse), fs::file_size(fine));
+
+    const LodModel a = open_model(fine, ModelKind::Mt).take();
+    const LodModel b = open_model(coarse, ModelKind::Mt).take();
+    const double span = a.range[1] - a.range[0];
+    bool some_larger = false;
+    for (const double f : {0.001, 0.01, 0.03, 0.1}) {
+        LodQuery q;
+        q.error_in = f * span;
+        const TetMesh ma = a.extract(q), mb = b.extract(q);
+        EXPECT_GE(mb.tet_count(), ma.tet_count()) << f;
+        some_larger = some_larger || mb.tet_count() > ma.tet_count();
+        EXPECT_LE(lod_volume(mb, volume).deviation.max, q.error_in + 0.5) << f;  // u8: rounded
+    }
+    EXPECT_TRUE(some_larger);  // coarser bounds do refine more somewhere
+    const VerifyReport rep = verify_container(coarse, true);
+    EXPECT_TRUE(rep.ok()) << rep.failure->message;
+
+    wo.mt_error_bits = 8;
+    try {
+        write_container(volume, tmp("mt_bits8.tlod"), wo);
+        ADD_FAILURE() << "8 mantissa bits accepted";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.code(), ErrorCode::InvalidArgument);
+    }
+    EXPECT_FALSE(fs::exists(tmp("mt_bits8.tlod")));
+}
+
 TEST(PublicApi, CorruptContainerIsAnErrorNamingTheFile) {
     const std::string good = tmp("good.tlod"), bad = tmp("corrupt.tlod");
     write_container(sample(), good);

@@ -42,6 +42,10 @@ struct ContainerWriteOptions {
     int zstd_level = 19;         // every section, 1..22
     int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
+    /// MT: mantissa bits of stored error bounds, 0..7 (each bound rounded up,
+    /// so at most 2^-N too high). Fewer bits store less (a float MT about 8%
+    /// less at 3) for a few % more tets at a given error (docs/mt.md §5).
+    int mt_error_bits = 7;
     /// MT: refuse collapses whose new tets have a circumradius / shortest edge
     /// ratio above this (no slivers, a few % more tets; mt_shape_cap.hpp); 0: no cap.
     double mt_max_shape_ratio = kDefaultMtMaxShapeRatio;

@@ -78,6 +78,7 @@ void check_options(const ContainerWriteOptions& o) {
     check_range("zstd level", o.zstd_level, 1, 22);
     check_range("brick_log2", o.brick_log2, 1, 16);
     check_range("error bits", o.error_bits, 0, 7);
+    check_range("MT error bits", o.mt_error_bits, 0, 7);
     if (!(o.max_error >= 0) || !std::isfinite(o.max_error))
         throw Error(ErrorCode::InvalidArgument, "max error " + std::to_string(o.max_error) + ": expected a finite value >= 0");
     if (o.max_error > 0 && o.mt)
@@ -347,6 +348,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     if (mt) {
         MtEncodeOptions mo;
         mo.zstd_level = o.zstd_level;
+        mo.error_mantissa_bits = o.mt_error_bits;
         encode_mt_container(*mt, meta, w, o.ht, mo);
         summary.mt_updates = mt->updates().size();
         summary.mt_base_tets = mt->base_tets().size();
