@@ -33,16 +33,47 @@ Expected<uint64_t> checksum64_file(const std::string& path) {
     return h;
 }
 
+namespace {
+
+struct CCtxFree {
+    void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+using CCtxPtr = std::unique_ptr<ZSTD_CCtx, CCtxFree>;
+
+/// Inputs up to this size reuse one compression context per thread. The HT
+/// encoder compresses thousands of chunk-sized inputs (tens of KiB, twice
+/// each when the samples mode is tried); a fresh context allocated, faulted
+/// in and cleared its match tables for every one of them. Larger inputs
+/// (whole sections of the MT or metadata) take a fresh context as before, so
+/// a thread never keeps the tables of a large input (tens of MiB at level 19).
+constexpr std::size_t kReusedContextMaxInput = std::size_t{1} << 20;
+
+/// A context with every parameter at its default: a reused one is reset, so
+/// its frames are the same bytes as a fresh context's (zstd's output depends
+/// on the parameters and the input only).
+ZSTD_CCtx* compression_context(std::size_t input_size, CCtxPtr& fresh) {
+    if (input_size > kReusedContextMaxInput) {
+        fresh.reset(ZSTD_createCCtx());
+        return fresh.get();
+    }
+    thread_local CCtxPtr reused;
+    if (!reused) reused.reset(ZSTD_createCCtx());
+    if (reused) ZSTD_CCtx_reset(reused.get(), ZSTD_reset_session_and_parameters);
+    return reused.get();
+}
+
+}  // namespace
+
 std::vector<std::byte> zstd_compress(std::span<const std::byte> raw, int level) {
     std::vector<std::byte> out(ZSTD_compressBound(raw.size()));
-    ZSTD_CCtx* cctx = ZSTD_createCCtx();
+    CCtxPtr fresh;
+    ZSTD_CCtx* cctx = compression_context(raw.size(), fresh);
     if (!cctx) throw Error(ErrorCode::IoError, "zstd: out of memory");
     ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
     ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
     // Our own XXH64 covers the stored bytes; zstd's checksum would be redundant.
     ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 0);
     std::size_t n = ZSTD_compress2(cctx, out.data(), out.size(), raw.data(), raw.size());
-    ZSTD_freeCCtx(cctx);
     if (ZSTD_isError(n))
         throw Error(ErrorCode::IoError, std::string("zstd compression failed: ") +
                                             ZSTD_getErrorName(n));

@@ -115,30 +115,39 @@ struct Geometry {
         return ((dz >> shift) * ny + (dy >> shift)) * nx + (dx >> shift);
     }
 
-    /// Calls f(x, y, z) for the points of cycle t in the box, z outer, x inner.
-    template <class F> void for_each_point(int t, const std::array<int64_t, 6>& b, F&& f) const {
+    /// Calls f(x0, x1, step, y, z) for the rows of the points of cycle t in the
+    /// box, z outer: the points (x0 + i·step, y, z) with x <= x1 (x0 <= x1).
+    template <class F> void for_each_row(int t, const std::array<int64_t, 6>& b, F&& f) const {
         const int64_t h = int64_t{1} << t;
         auto up = [&](int64_t v, int64_t m) { return (v + m - 1) / m * m; };
         if (t == k) {
             const int64_t L = h;
             for (int64_t z = up(b[2], L); z <= b[5]; z += L)
-                for (int64_t y = up(b[1], L); y <= b[4]; y += L)
-                    for (int64_t x = up(b[0], L); x <= b[3]; x += L) f(x, y, z);
+                for (int64_t y = up(b[1], L); y <= b[4]; y += L) {
+                    const int64_t x0 = up(b[0], L);
+                    if (x0 <= b[3]) f(x0, b[3], L, y, z);
+                }
             return;
         }
         for (int64_t z = up(b[2], h); z <= b[5]; z += h) {
             const bool ze = (z & (2 * h - 1)) == 0;
             for (int64_t y = up(b[1], h); y <= b[4]; y += h) {
                 const bool ye = (y & (2 * h - 1)) == 0;
-                const int64_t x0 = up(b[0], h);
-                if (ze && ye) {
-                    int64_t x = (x0 & (2 * h - 1)) == 0 ? x0 + h : x0;
-                    for (; x <= b[3]; x += 2 * h) f(x, y, z);
-                } else {
-                    for (int64_t x = x0; x <= b[3]; x += h) f(x, y, z);
+                int64_t x0 = up(b[0], h);
+                int64_t step = h;
+                if (ze && ye) {  // y and z even: only the odd x are of cycle t
+                    if ((x0 & (2 * h - 1)) == 0) x0 += h;
+                    step = 2 * h;
                 }
+                if (x0 <= b[3]) f(x0, b[3], step, y, z);
             }
         }
+    }
+    /// Calls f(x, y, z) for the points of cycle t in the box, z outer, x inner.
+    template <class F> void for_each_point(int t, const std::array<int64_t, 6>& b, F&& f) const {
+        for_each_row(t, b, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
+            for (int64_t x = x0; x <= x1; x += step) f(x, y, z);
+        });
     }
     uint64_t count_points(int t, const std::array<int64_t, 6>& b) const {
         // Closed form: multiples of h per axis minus the multiples of 2h (t < k).

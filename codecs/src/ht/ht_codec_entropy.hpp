@@ -33,41 +33,41 @@ struct Bit {
 
 class Encoder {
 public:
-    explicit Encoder(std::vector<std::byte>& out) : out_(out) {}
-    void encode(Bit& b, int bit) {
+    // A pointer, not a reference, so the coders can keep a copy of the
+    // encoder in locals per row (as the decoder) and assign it back.
+    explicit Encoder(std::vector<std::byte>& out) : out_(&out) {}
+    // Inlined into the coders' loops and without a branch on the bit, as the
+    // decoder; the byte output (once per 8 coded bits at most) stays a call.
+    [[gnu::always_inline]] void encode(Bit& b, int bit) {
         const uint32_t bound = (range_ >> 16) * b.p;
-        if (!bit) {
-            range_ = bound;
-        } else {
-            low_ += bound;
-            range_ -= bound;
-        }
+        low_ += bit ? bound : 0;
+        range_ = bit ? range_ - bound : bound;
         b.update(bit);
-        while (range_ < (1u << 24)) {
-            range_ <<= 8;
-            shift_low();
-        }
+        normalize();
     }
     /// A bit of probability exactly 1/2, no context (spec: "direct bit").
-    void encode_direct(int bit) {
+    [[gnu::always_inline]] void encode_direct(int bit) {
         range_ >>= 1;
-        if (bit) low_ += range_;
-        while (range_ < (1u << 24)) {
-            range_ <<= 8;
-            shift_low();
-        }
+        low_ += bit ? range_ : 0;
+        normalize();
     }
     void finish() {
         for (int i = 0; i < 5; ++i) shift_low();
     }
 
 private:
-    void shift_low() {
+    [[gnu::always_inline]] void normalize() {
+        while (range_ < (1u << 24)) {
+            range_ <<= 8;
+            shift_low();
+        }
+    }
+    [[gnu::noinline]] void shift_low() {
         if (uint32_t(low_) < 0xFF000000u || (low_ >> 32) != 0) {
             const uint8_t carry = uint8_t(low_ >> 32);
             uint8_t temp = cache_;
             do {
-                out_.push_back(std::byte(uint8_t(temp + carry)));
+                out_->push_back(std::byte(uint8_t(temp + carry)));
                 temp = 0xFF;
             } while (--pending_ != 0);
             cache_ = uint8_t(low_ >> 24);
@@ -75,7 +75,7 @@ private:
         ++pending_;
         low_ = (low_ & 0x00FFFFFFu) << 8;
     }
-    std::vector<std::byte>& out_;
+    std::vector<std::byte>* out_;
     uint64_t low_ = 0;
     uint32_t range_ = 0xFFFFFFFFu;
     uint8_t cache_ = 0;
@@ -121,7 +121,7 @@ private:
             code_ = (code_ << 8) | next();
         }
     }
-    uint32_t next() {
+    [[gnu::always_inline]] uint32_t next() {
         if (p_ == end_) {
             overrun_ = true;
             return 0;
@@ -148,7 +148,7 @@ struct IntModel {
 [[gnu::always_inline]] inline int bit_length(uint64_t v) { return v ? 64 - __builtin_clzll(v) : 0; }
 
 /// mag: |value| (1 .. 2^64-1 or 0); neg: sign. maxlen: the largest possible length.
-inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
+[[gnu::always_inline]] inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
     e.encode(m.zero, mag == 0);
     if (mag == 0) return;
     e.encode(m.sign, neg);

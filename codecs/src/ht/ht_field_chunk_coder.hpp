@@ -14,7 +14,9 @@ struct FieldModels {
 /// f(cls, prediction, field index, lattice slot) for each: the encoder and the
 /// decoder share it, so they cannot disagree on order or prediction. A
 /// copy-assignable f (a value type, not a lambda) is copied into a local for
-/// each row and back after it, so its state can live in registers.
+/// each row and back after it, so its state can live in registers (its
+/// operator() and everything it calls must then be inlined: a call taking
+/// the local's address would put it back in memory).
 template <class T, class F>
 void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const ChunkLattice& lat, F& f) {
     const ChunkFrame Fr(G, c.cycle, c.box);
@@ -28,46 +30,64 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
                 for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
             } else {
                 const RowPredictor<T, Cls> P(G, Fr, r);
-                auto row = [&](auto& step) {
-                    for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
-                        const Prediction pr =
-                            P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
-                        step(Cls, pr, idx, s);
+                // The loop is forced inline where the local copy is made: GCC
+                // kept it an out-of-line lambda, the copy's address escaped
+                // into it and the coder's state lived in memory, reloaded
+                // after every store of a decoded value.
+                auto row = [&](F& step_ref) {
+                    auto run = [&](auto& step) __attribute__((always_inline)) {
+                        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+                            const Prediction pr =
+                                P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
+                            step(Cls, pr, idx, s);
+                        }
+                    };
+                    if constexpr (std::is_copy_assignable_v<F>) {
+                        F local = step_ref;
+                        run(local);
+                        step_ref = local;
+                    } else {
+                        run(step_ref);
                     }
                 };
-                if constexpr (std::is_copy_assignable_v<F>) {
-                    F local = f;
-                    row(local);
-                    f = local;
-                } else {
-                    row(f);
-                }
+                row(f);
             }
         });
     });
 }
 
+/// The encoder's step for one point, a value type for the same reason as
+/// FieldPointDecoder below: its coder state and lattice pointer then stay in
+/// locals across a row.
+template <class T>
+struct FieldPointEncoder {
+    rc::Encoder enc;
+    FieldModels* models = nullptr;
+    const T* v = nullptr;
+    LatticeView lat;
+
+    [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
+        using D = Dom<T>;
+        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
+        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
+        const bool neg = r < 0;
+        const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
+        rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, D::W);
+        lat.set(s, mag);
+    }
+};
+
 template <class T>
 std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, const HtChunk& c) {
-    using D = Dom<T>;
-    constexpr int W = D::W;
     std::vector<std::byte> out;
     if (c.points == 0) return out;
     auto models = std::make_unique<FieldModels>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     prefetch_chunk(G, v, c.cycle, c.box, 1);
-    rc::Encoder enc(out);
-    auto code = [&](int cls, const Prediction& pr, int64_t idx, int64_t s) {
-        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
-        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
-        const bool neg = r < 0;
-        const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
-        rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, W);
-        lat.set(s, mag);
-    };
-    walk_field_chunk(G, v, c, lat, code);
-    enc.finish();
+    FieldPointEncoder<T> step{rc::Encoder(out), models.get(), v, lat.view()};
+    walk_field_chunk(G, v, c, lat, step);
+    step.enc.finish();
     return out;
 }
 

@@ -86,8 +86,10 @@ struct ChunkLattice {
     /// locals, where no store of a decoded value (a u8 store may alias
     /// anything) forces its reload.
     LatticeView view() const { return LatticeView{mag.data(), px, pxy}; }
-    void set(int64_t s, uint64_t m) { view().set(s, m); }
-    uint64_t neighbour_mean(int64_t s) const { return view().neighbour_mean(s); }
+    // Inlined as LatticeView's: the error coders call these once per diamond,
+    // and out of line they were 3-4% of an encode.
+    [[gnu::always_inline]] void set(int64_t s, uint64_t m) { view().set(s, m); }
+    [[gnu::always_inline]] uint64_t neighbour_mean(int64_t s) const { return view().neighbour_mean(s); }
 };
 
 /// Offsets of the 27 points c + h·(ox, oy, oz), o in {-1, 0, 1}^3, coded as

@@ -105,8 +105,18 @@ private:
             const T* src = reinterpret_cast<const T*>(chunk.field.data());
             T* dst = reinterpret_cast<T*>(rows_.data());
             const Geometry& W = chunk.window;
-            G_.for_each_point(t, box, [&](int64_t x, int64_t y, int64_t z) {
-                dst[((z - zlo) * sd_.y + y) * sd_.x + x] = src[W.index(x, y, z)];
+            // By rows: the indices are worked out once per row, and the rows
+            // of cycle 0 with y or z odd (3/4 of its points) are contiguous in
+            // both arrays.
+            G_.for_each_row(t, box, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
+                T* d = dst + ((z - zlo) * sd_.y + y) * sd_.x;
+                const T* s = src + W.index(x0, y, z);
+                const int64_t ds = W.index_delta(step, 0, 0);
+                if (step == 1 && ds == 1) {
+                    std::memcpy(d + x0, s, std::size_t(x1 - x0 + 1) * sizeof(T));
+                    return;
+                }
+                for (int64_t x = x0; x <= x1; x += step, s += ds) d[x] = *s;
             });
         });
     }
