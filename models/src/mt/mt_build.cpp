@@ -63,10 +63,10 @@ void print_stats(const char* what, const mt::BrickResult::Stats& s) {
     const double c = s.commits > 0 ? double(s.commits) : 1.0, e = s.evaluations > 0 ? double(s.evaluations) : 1.0;
     std::fprintf(stderr,
                  "mt build: %s: %llu collapses (%llu reusing their evaluation), %llu evaluations (%.2f per "
-                 "collapse, %llu skipped, %.1f%% cut at the link), %.1f star tets, %.1f targets ranked, %.2f tried, "
+                 "collapse, %llu + %llu skipped, %.1f%% cut at the link), %.1f star tets, %.1f targets ranked, %.2f tried, "
                  "%.1f points gathered, %.1f located per evaluation\n",
                  what, (unsigned long long)s.commits, (unsigned long long)s.commits_reused,
-                 (unsigned long long)s.evaluations, double(s.evaluations) / c, (unsigned long long)s.skipped, 100.0 * double(s.cut_at_link) / e,
+                 (unsigned long long)s.evaluations, double(s.evaluations) / c, (unsigned long long)s.skipped, (unsigned long long)s.repeated, 100.0 * double(s.cut_at_link) / e,
                  double(s.star_tets) / e, double(s.ranked) / e, double(s.tried) / e, double(s.gathered) / e,
                  double(s.located) / e);
 }

@@ -53,6 +53,8 @@ struct Candidate {
     // at least this, as long as the star does not change; +inf when it depended on the
     // link condition, which reads the targets' stars too.
     double none_from = std::numeric_limits<double>::infinity();
+    bool link_free = true;  // no target was refused by the link condition
+
 };
 }  // namespace
 
@@ -88,6 +90,7 @@ struct BrickDecimator {
         uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
         uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
         uint8_t no_target : 1 = 0;  // a vertex whose evaluation found no target (no_target_from)
+        uint8_t same_best : 1 = 0;  // a vertex whose live entry holds what an evaluation would find (run)
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
@@ -238,9 +241,19 @@ struct BrickDecimator {
     void for_star(uint32_t v, F f) const {
         for (uint32_t c = vhead[v]; c != kNil; c = tets[(c) >> 2].next[(c) & 3]) f(c >> 2, c & 3);
     }
+    // The walk is a chain of dependent loads (the next corner is in the tet just read),
+    // but the point records the caller reads next (each tet's corners, the head of its
+    // point list) are known at each step: asking for them now overlaps their misses
+    // with the rest of the walk.
     void gather_star(uint32_t v, std::vector<uint32_t>& out) const {
         out.clear();
-        for_star(v, [&](uint32_t t, uint32_t) { out.push_back(t); });
+        for (uint32_t c = vhead[v]; c != kNil;) {
+            const TetRec& t = tets[c >> 2];
+            for (const uint32_t u : t.v) __builtin_prefetch(&point[u]);
+            if (t.head != kNil) __builtin_prefetch(&point[t.head]);
+            out.push_back(c >> 2);
+            c = t.next[c & 3];
+        }
     }
     // The chains are doubly linked (prev_corner) so that unlinking does not walk the
     // chain from its head: each step of such a walk is a cache miss.
@@ -745,6 +758,7 @@ struct BrickDecimator {
                 else if (excluded.empty()) best.none_from = ranked.empty() ? -INFINITY : cutoff;
                 return best;
             }
+            best.link_free = excluded.empty();
             if (!check_link || link_ok(w, best.s)) {
                 kept_w = w, kept_s = best.s, kept_stamp = stamp[w];
                 return best;
@@ -789,7 +803,7 @@ struct BrickDecimator {
         // Every tet whose corners, chains, errors or points change below is one of w's:
         // their vertices are the ones whose next evaluation may differ.
         for (const uint32_t t : star_w)
-            for (const uint32_t v : tets[t].v) point[v].no_target = 0;
+            for (const uint32_t v : tets[t].v) point[v].no_target = 0, point[v].same_best = 0;
         if (!reuse) star_faces(w);
         if ((!reuse || !new_tets_of_best) && !make_new_tets(s))
             throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
@@ -975,9 +989,21 @@ struct BrickDecimator {
                 // without touching w's star; in the last passes they are a quarter of all.)
                 if (!check_link && point[e.w].no_target && cutoff >= double(no_target_from[e.w])) {
                     ++st.skipped;
+                    point[e.w].same_best = 0;
+                    continue;
+                }
+                // Likewise an exact entry whose stamp alone changed: w's star is the one its
+                // evaluation saw, which found the first target of least cost in rank order,
+                // without the link test deciding; any cutoff of at least that cost finds it
+                // again. The entry the evaluation would push is pushed as it would be.
+                if (!check_link && !e.dirty && !e.partial && point[e.w].same_best && cutoff >= e.cost) {
+                    ++st.repeated;
+                    live_seq[e.w] = ++seq_counter;
+                    heap.push(Entry{e.cost, e.quality, e.w, e.s, live_seq[e.w], stamp[e.w], false, false});
                     continue;
                 }
                 const Candidate c = evaluate(e.w, check_link, cutoff);
+                point[e.w].same_best = c.ok && c.link_free;
                 if (!c.ok && !c.partial && c.none_from != INFINITY) {
                     point[e.w].no_target = 1;
                     no_target_from[e.w] = c.none_from == -INFINITY ? -INFINITY : mt::round_up_float(c.none_from, true);
