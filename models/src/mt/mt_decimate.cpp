@@ -54,7 +54,6 @@ struct Candidate {
     // link condition, which reads the targets' stars too.
     double none_from = std::numeric_limits<double>::infinity();
     bool link_free = true;  // no target was refused by the link condition
-
 };
 }  // namespace
 
@@ -90,7 +89,7 @@ struct BrickDecimator {
         uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
         uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
         uint8_t no_target : 1 = 0;  // a vertex whose evaluation found no target (no_target_from)
-        uint8_t same_best : 1 = 0;  // a vertex whose live entry holds what an evaluation would find (run)
+        uint8_t same_best : 1 = 0;  // a vertex whose exact live entry is what an evaluation finds (run's loop)
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
