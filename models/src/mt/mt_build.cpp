@@ -58,6 +58,19 @@ void release_free_heap() {
 #endif
 }
 
+/// TETLOD_MT_STATS: what the decimation of a pass (or the build) did, per collapse.
+void print_stats(const char* what, const mt::BrickResult::Stats& s) {
+    const double c = s.commits > 0 ? double(s.commits) : 1.0, e = s.evaluations > 0 ? double(s.evaluations) : 1.0;
+    std::fprintf(stderr,
+                 "mt build: %s: %llu collapses (%llu reusing their evaluation), %llu evaluations (%.2f per "
+                 "collapse, %llu + %llu skipped, %.1f%% cut at the link), %.1f star tets, %.1f targets ranked, %.2f tried, "
+                 "%.1f points gathered, %.1f located per evaluation\n",
+                 what, (unsigned long long)s.commits, (unsigned long long)s.commits_reused,
+                 (unsigned long long)s.evaluations, double(s.evaluations) / c, (unsigned long long)s.skipped, (unsigned long long)s.repeated, 100.0 * double(s.cut_at_link) / e,
+                 double(s.star_tets) / e, double(s.ranked) / e, double(s.tried) / e, double(s.gathered) / e,
+                 double(s.located) / e);
+}
+
 /// Error cap of pass `pass` of `passes` (never the last, which has none): `top` of the
 /// value range for the last-but-one pass, divided by 8 for each pass before it.
 double pass_error_cap(int pass, int passes, double range_span, double top) {
@@ -146,7 +159,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
     const double range_span = value_range[1] - value_range[0];
     std::vector<mt::BrickMesh> prev;  // the meshes of the last pass, then the tets carried over it
     mt::BrickMesh carry;
-    uint64_t mask_bits = 0, evaluations = 0, relocated = 0;
+    uint64_t mask_bits = 0;
+    mt::BrickResult::Stats total_stats, pass_stats;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     mt::BuildProgress progress(options.progress, passes);
@@ -207,7 +221,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             m.updates_.insert(m.updates_.end(), r.updates.begin(), r.updates.end());
             append_bits(m.mask_bits_, mask_bits, r.mask_bits, r.mask_bit_count);
             mask_bits += r.mask_bit_count;
-            evaluations += r.evaluations, relocated += r.relocated_points;
+            pass_stats.add(r.stats);
             if (options.record_history) {
                 // The nodes fixed here are free points of a finished brick: no brick
                 // still running reads them (bricks of a pass touch disjoint nodes).
@@ -261,7 +275,10 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                          bricks, (long long)largest_brick, most_in_flight.load(), carry.tets,
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                          m.updates_.size(), handed_tets, double(handed_bytes) / 1048576.0);
+            print_stats("pass", pass_stats);
         }
+        total_stats.add(pass_stats);
+        pass_stats = {};
     }
     if (carry.tets != 0 || prev.size() != 1)
         throw Error(ErrorCode::CorruptData, "mt build: internal error (the last pass is not one brick)");
@@ -271,9 +288,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
         for (const auto& t : m.base_)
             m.history_.front().base.push_back(
                 {nodes.node[t[0]], nodes.node[t[1]], nodes.node[t[2]], nodes.node[t[3]]});
-    if (stats)
-        std::fprintf(stderr, "mt build: %zu collapses, %llu evaluations (%llu points)\n", m.updates_.size(),
-                     (unsigned long long)evaluations, (unsigned long long)relocated);
+    if (stats) print_stats("build", total_stats);
     m.finalize();
     return m;
 }

@@ -49,6 +49,11 @@ struct Candidate {
     bool partial = false;  // every target costs more than the cutoff; cost is a lower bound
     double cost = 0, quality = 0;
     uint32_t s = kNil;
+    // With neither ok nor partial: the same answer (no target) comes for every cutoff of
+    // at least this, as long as the star does not change; +inf when it depended on the
+    // link condition, which reads the targets' stars too.
+    double none_from = std::numeric_limits<double>::infinity();
+    bool link_free = true;  // no target was refused by the link condition
 };
 }  // namespace
 
@@ -83,6 +88,8 @@ struct BrickDecimator {
         uint8_t alive : 1 = 0;      // a vertex of the brick's mesh (not removed)
         uint8_t collected : 1 = 0;  // set only while evaluate collects a star's neighbours
         uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
+        uint8_t no_target : 1 = 0;  // a vertex whose evaluation found no target (no_target_from)
+        uint8_t same_best : 1 = 0;  // a vertex whose exact live entry is what an evaluation finds (run's loop)
         uint32_t next = kNil;  // owned point list link
         uint32_t value = 0;    // the sample's bits (see ValueSlot)
     };
@@ -108,6 +115,10 @@ struct BrickDecimator {
     // Per vertex (sized by the vertices, not the box).
     std::vector<uint32_t> vhead;  // first corner
     std::vector<uint32_t> stamp, live_seq;
+    // With point[v].no_target: v's last evaluation found no target, and will find none
+    // again for any cutoff of at least this (Candidate::none_from, rounded up), until
+    // v's star changes (commit clears the flag of every vertex of the changed tets).
+    std::vector<float> no_target_from;
 
     const std::vector<BrickMesh*>& input;
     NodeState& nodes;
@@ -122,6 +133,11 @@ struct BrickDecimator {
     // an evaluation often leaves a target at its first points (cut above the cutoff).
     std::vector<Bary> nb;
     std::vector<uint8_t> nb_ready;
+    // Per gathered point, the new tet that holds it: for the target being tried, and for
+    // the best target so far (kept for the commit, with the evaluation that found it).
+    std::vector<int> located, best_located;
+    bool new_tets_of_best = false;  // ntv, nb, ... are the best target's
+    uint32_t kept_w = kNil, kept_s = kNil, kept_stamp = 0;  // the evaluation kept, kNil: none
     std::vector<uint32_t> new_from;  // the star tet (index into star_w) a new tet comes from
     Pt new_at{0, 0, 0};               // the target of the new tets
     std::vector<int> old2new;
@@ -224,9 +240,19 @@ struct BrickDecimator {
     void for_star(uint32_t v, F f) const {
         for (uint32_t c = vhead[v]; c != kNil; c = tets[(c) >> 2].next[(c) & 3]) f(c >> 2, c & 3);
     }
+    // The walk is a chain of dependent loads (the next corner is in the tet just read),
+    // but the point records the caller reads next (each tet's corners, the head of its
+    // point list) are known at each step: asking for them now overlaps their misses
+    // with the rest of the walk.
     void gather_star(uint32_t v, std::vector<uint32_t>& out) const {
         out.clear();
-        for_star(v, [&](uint32_t t, uint32_t) { out.push_back(t); });
+        for (uint32_t c = vhead[v]; c != kNil;) {
+            const TetRec& t = tets[c >> 2];
+            for (const uint32_t u : t.v) __builtin_prefetch(&point[u]);
+            if (t.head != kNil) __builtin_prefetch(&point[t.head]);
+            out.push_back(c >> 2);
+            c = t.next[c & 3];
+        }
     }
     // The chains are doubly linked (prev_corner) so that unlinking does not walk the
     // chain from its head: each step of such a walk is a cache miss.
@@ -355,6 +381,7 @@ struct BrickDecimator {
             for (int i = 0; i < 4; ++i) link_corner(tets[t].v[i], uint32_t(4 * t + i));
         stamp.assign(vertices, 0);
         live_seq.assign(vertices, 0);
+        no_target_from.assign(vertices, 0.0f);
     }
 
     void push_dirty(uint32_t w, double cost) {
@@ -434,7 +461,7 @@ struct BrickDecimator {
         return n;
     }
     Link lw_, ls_;
-    uint64_t n_eval = 0, n_link = 0, n_link_fail = 0, n_commit = 0, n_pts = 0;
+    BrickResult::Stats& st = out.stats;
     /// Lk(s) cut to the simplices whose vertices are all vertices of Lk(w) (marked
     /// `in_link`; ω when `omega`): a simplex of Lk(w) has only such vertices, so the
     /// intersection with Lk(w), all link_ok counts, is that of the whole Lk(s), for
@@ -478,7 +505,6 @@ struct BrickDecimator {
         sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
     }
     bool link_ok(uint32_t w, uint32_t s) {
-        ++n_link;
         build_link(w, lw_);
         const bool omega = !lw_.v0.empty() && lw_.v0.back() == kOmega;
         for (const uint32_t u : lw_.v0)
@@ -514,9 +540,9 @@ struct BrickDecimator {
         sort_unique(e0), sort_unique(e1);
         // Lk(ws) is always in Lk(w) ∩ Lk(s), so the condition is that the intersection
         // has no more vertices and edges than Lk(ws), and no triangle.
-        if (common_count(lw_.v0, ls_.v0, e0.size()) != e0.size()) return ++n_link_fail, false;
-        if (common_count(lw_.v1, ls_.v1, e1.size()) != e1.size()) return ++n_link_fail, false;
-        if (common_count(lw_.v2, ls_.v2, 0) != 0) return ++n_link_fail, false;
+        if (common_count(lw_.v0, ls_.v0, e0.size()) != e0.size()) return false;
+        if (common_count(lw_.v1, ls_.v1, e1.size()) != e1.size()) return false;
+        if (common_count(lw_.v2, ls_.v2, 0) != 0) return false;
         return true;
     }
 
@@ -605,8 +631,10 @@ struct BrickDecimator {
     /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
     /// result is `partial` with a lower bound (docs/mt.md §2, "Order").
     Candidate evaluate(uint32_t w, bool check_link, double cutoff = std::numeric_limits<double>::infinity()) {
-        ++n_eval;
+        ++st.evaluations;
+        kept_w = kNil;
         gather_star(w, star_w);
+        st.star_tets += star_w.size();
         // The points are gathered only when a target gets past the face errors of the
         // link: when those alone exceed the cutoff, no point is needed (a lower bound).
         bool gathered = false;
@@ -663,9 +691,12 @@ struct BrickDecimator {
             ranked.push_back({std::sqrt(q2), s});
             if (all_cut) break;
         }
+        st.ranked += ranked.size();
         if (all_cut) {
+            ++st.cut_at_link;
             Candidate c;
             if (!ranked.empty()) c.partial = true, c.cost = link_max, c.quality = -INFINITY;
+            else c.none_from = -INFINITY;  // no legal target at all
             return c;
         }
         std::sort(ranked.begin(), ranked.end());
@@ -685,15 +716,20 @@ struct BrickDecimator {
                 }
                 if (!gathered) {
                     gather_points(w);
-                    n_pts += pts.size();
+                    st.gathered += pts.size();
                     gathered = true;
                 }
                 make_new_tets(s);
+                new_tets_of_best = false;
+                ++st.tried;
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
+                located.resize(pts.size());
                 for (size_t i = 0; i < pts.size(); ++i) {
                     const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
                     const int j = locate(pts[i], guess, d);
+                    located[i] = j;
+                    ++st.located;
                     if (j < 0) {
                         ok = false;
                         break;
@@ -710,12 +746,22 @@ struct BrickDecimator {
                     continue;
                 }
                 best.ok = true, best.cost = cost, best.quality = q, best.s = s;
+                std::swap(located, best_located);
+                new_tets_of_best = true;
             }
             if (!best.ok) {
                 if (cut) best.partial = true, best.cost = lower, best.quality = -INFINITY;
+                // Every ranked target failed to hold a point before its cost passed the
+                // cutoff, so it fails the same way under any higher cutoff (costs only grow
+                // along the points); without a ranked target no cutoff matters.
+                else if (excluded.empty()) best.none_from = ranked.empty() ? -INFINITY : cutoff;
                 return best;
             }
-            if (!check_link || link_ok(w, best.s)) return best;
+            best.link_free = excluded.empty();
+            if (!check_link || link_ok(w, best.s)) {
+                kept_w = w, kept_s = best.s, kept_stamp = stamp[w];
+                return best;
+            }
             excluded.push_back(best.s);
         }
     }
@@ -732,8 +778,18 @@ struct BrickDecimator {
     }
 
     void commit(uint32_t w, uint32_t s) {
-        gather_star(w, star_w);
-        gather_points(w);
+        // Most collapses are committed right after the evaluation that chose them (its
+        // entry is the heap's next): w's star is then the one evaluated (same stamp), and
+        // the scratch still holds its star, faces and points, and where the chosen target's
+        // new tets hold each point. Reusing them gives the same values by construction.
+        const bool reuse = kept_w == w && kept_s == s && kept_stamp == stamp[w];
+        kept_w = kNil;
+        if (reuse) {
+            ++st.commits_reused;
+        } else {
+            gather_star(w, star_w);
+            gather_points(w);
+        }
         MtHistory* hist = opt.record_history ? &out.history : nullptr;
         if (hist) {
             std::vector<MtHistory::Tet> before;
@@ -743,8 +799,13 @@ struct BrickDecimator {
             });
             hist->before.push_back(std::move(before));
         }
-        star_faces(w);
-        if (!make_new_tets(s)) throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
+        // Every tet whose corners, chains, errors or points change below is one of w's:
+        // their vertices are the ones whose next evaluation may differ.
+        for (const uint32_t t : star_w)
+            for (const uint32_t v : tets[t].v) point[v].no_target = 0, point[v].same_best = 0;
+        if (!reuse) star_faces(w);
+        if ((!reuse || !new_tets_of_best) && !make_new_tets(s))
+            throw Error(ErrorCode::CorruptData, "mt build: internal error (orientation)");
         // Face errors inherited by the new tets (see the file comment).
         auto& nf = new_face_err;
         auto& ne = new_err;
@@ -804,7 +865,9 @@ struct BrickDecimator {
         std::array<int64_t, 4> d;
         for (size_t i = 0; i < pts.size(); ++i) {
             const uint32_t p = pts[i];
-            const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
+            // The evaluation's answer is the first tet holding p (guess first): tried first,
+            // it is the answer again.
+            const int guess = reuse ? best_located[i] : pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
             const int j = locate(p, guess, d);
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
             point[p].next = tets[newid[j]].head;
@@ -918,7 +981,32 @@ struct BrickDecimator {
             if (fresh && e.cost > opt.max_error) break;  // fresh keys are exact or lower bounds
             if (!fresh || e.partial || !link_ok(e.w, e.s)) {
                 const double cutoff = heap.empty() ? INFINITY : heap.top().cost;
-                const Candidate c = evaluate(e.w, fresh && !e.partial, cutoff);
+                const bool check_link = fresh && !e.partial;
+                // An evaluation known to find no target again is skipped: it would push
+                // nothing, so the heap, hence every later step, is the same without it.
+                // (Most of them come from a neighbour's collapse that bumped w's stamp
+                // without touching w's star; in the last passes they are a quarter of all.)
+                if (!check_link && point[e.w].no_target && cutoff >= double(no_target_from[e.w])) {
+                    ++st.skipped;
+                    point[e.w].same_best = 0;
+                    continue;
+                }
+                // Likewise an exact entry whose stamp alone changed: w's star is the one its
+                // evaluation saw, which found the first target of least cost in rank order,
+                // without the link test deciding; any cutoff of at least that cost finds it
+                // again. The entry the evaluation would push is pushed as it would be.
+                if (!check_link && !e.dirty && !e.partial && point[e.w].same_best && cutoff >= e.cost) {
+                    ++st.repeated;
+                    live_seq[e.w] = ++seq_counter;
+                    heap.push(Entry{e.cost, e.quality, e.w, e.s, live_seq[e.w], stamp[e.w], false, false});
+                    continue;
+                }
+                const Candidate c = evaluate(e.w, check_link, cutoff);
+                point[e.w].same_best = c.ok && c.link_free;
+                if (!c.ok && !c.partial && c.none_from != INFINITY) {
+                    point[e.w].no_target = 1;
+                    no_target_from[e.w] = c.none_from == -INFINITY ? -INFINITY : mt::round_up_float(c.none_from, true);
+                }
                 if (c.ok || c.partial) {
                     live_seq[e.w] = ++seq_counter;
                     heap.push(Entry{c.cost, c.quality, e.w, c.partial ? kNil : c.s, live_seq[e.w], stamp[e.w],
@@ -928,11 +1016,9 @@ struct BrickDecimator {
             }
             if (e.cost > opt.max_error) break;
             commit(e.w, e.s);
-            ++n_commit;
-            if (progress && n_commit % kCollapsesPerReport == 0) progress(n_commit, candidates);
+            ++st.commits;
+            if (progress && st.commits % kCollapsesPerReport == 0) progress(st.commits, candidates);
         }
-        out.evaluations = n_eval;
-        out.relocated_points = n_pts;
         // The decimated mesh, in slot order (the node state is already in `nodes`).
         std::vector<uint8_t> dead(tets.size(), 0);
         for (uint32_t t : free_tets) dead[t] = 1;
@@ -973,9 +1059,10 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
         vertices = tets / 4;  // about 5-6 tets per vertex in a decimated mesh; a margin
     }
     // Per tet: its record and back links; per point its record; per vertex its state
-    // (first corner, stamp, heap sequence) and a heap entry; per box point a bit.
+    // (first corner, stamp, heap sequence, no-target cutoff) and a heap entry; per box
+    // point a bit.
     return tets * (sizeof(D::TetRec) + 4 * sizeof(uint32_t)) + (vertices + owned) * sizeof(D::PointRec) +
-           vertices * (3 * sizeof(uint32_t) + sizeof(Entry)) + box_points / 8 + box_points / 16;
+           vertices * (3 * sizeof(uint32_t) + sizeof(float) + sizeof(Entry)) + box_points / 8 + box_points / 16;
 }
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,

@@ -46,7 +46,26 @@ struct BrickResult {
     uint64_t mask_bit_count = 0;
     MtHistory history;  // only with record_history; provisional node ids
     BrickMesh mesh;
-    uint64_t evaluations = 0, relocated_points = 0;
+    /// What the decimation did, for TETLOD_MT_STATS (docs/mt.md §2, "Speed"); no result
+    /// depends on it.
+    struct Stats {
+        uint64_t evaluations = 0;
+        uint64_t skipped = 0;         // evaluations skipped: known to find no target
+        uint64_t repeated = 0;        // evaluations skipped: known to find the entry's target again
+        uint64_t cut_at_link = 0;     // evaluations ended by the link's face errors (no target ranked)
+        uint64_t star_tets = 0;       // tets of the stars evaluated
+        uint64_t ranked = 0;          // targets ranked by shape
+        uint64_t tried = 0;           // targets whose points were located
+        uint64_t gathered = 0;        // points gathered (once per evaluation that needs them)
+        uint64_t located = 0;         // points located in a target's new tets
+        uint64_t commits = 0;
+        uint64_t commits_reused = 0;  // commits that reused their evaluation's located points
+        void add(const Stats& o) {
+            evaluations += o.evaluations, skipped += o.skipped, repeated += o.repeated, cut_at_link += o.cut_at_link, star_tets += o.star_tets;
+            ranked += o.ranked, tried += o.tried, gathered += o.gathered, located += o.located;
+            commits += o.commits, commits_reused += o.commits_reused;
+        }
+    } stats;
 };
 
 /// Progress inside a brick: (collapses so far, free vertices at the start), every
