@@ -25,6 +25,8 @@
 #include <cstring>
 #include <string>
 
+#include <tbb/parallel_for.h>
+
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/core/varint.hpp"
@@ -214,13 +216,19 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     }
     // Each stream is its own zstd frame: measured on the bench volumes, one frame
     // over all streams costs 3-6 % more (its blocks straddle streams).
+    // The frames are compressed in parallel (a frame depends on its stream
+    // only, so the bytes are the same for any thread count): at level 19 they
+    // were a tenth of a 129^3 convert's CPU, on one core.
+    std::vector<std::byte> frames[kStreamsCoding2];
+    tbb::parallel_for(0, kStreamsCoding2, [&](int i) {
+        if (!s[i].empty()) frames[i] = tlod::zstd_compress(std::as_bytes(std::span(s[i])), opt.zstd_level);
+    });
     uint64_t raw_size = 0;
     std::vector<uint8_t> z;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
     for (const auto& st : s) {
         raw_size += 8 + st.size();
-        std::vector<std::byte> frame;
-        if (!st.empty()) frame = tlod::zstd_compress(std::as_bytes(std::span(st)), opt.zstd_level);
+        const std::vector<std::byte>& frame = frames[&st - s];
         if (stats)
             std::fprintf(stderr, "mt encode: stream %zu: %zu bytes raw, %zu stored\n", size_t(&st - s), st.size(),
                          frame.size());
