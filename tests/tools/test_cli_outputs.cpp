@@ -115,6 +115,11 @@ TEST(CliOutputs, DashIsStdoutAndStdinWhereTheFormatStreams) {
     EXPECT_EQ(r.out, raw);  // results went to stderr, not into the data
     EXPECT_NE(r.err.find("wrote"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists("-"));
+    // Without --format, '-' carries raw samples (as zstd -d writes its content).
+    r = run_no_force("decode '" + d + "/v.tlod' -");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out, raw);
+    EXPECT_NE(r.err.find("--dims 9,9,9 --dtype u8"), std::string::npos) << r.err;
     r = sh("'" + std::string(TETLOD_CLI_PATH) + "' decode - '" + d + "/in.raw' < '" + d + "/v.tlod'");
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(slurp(d + "/in.raw"), raw);

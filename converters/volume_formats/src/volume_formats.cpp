@@ -61,6 +61,12 @@ VolumeLocation locate_volume(const std::string& path, const std::string& format)
         }
         return loc;
     }
+    // '-' (standard input or output) has no extension: it carries raw samples, as
+    // zstd's and tar's '-' carry their own stream, unless a format is named.
+    if (path == "-") {
+        loc.format = find_volume_format("raw");
+        if (loc.format) return loc;
+    }
     for (const auto& f : volume_formats())
         for (const auto& ext : f.extensions)
             if (ends_with(l, ext)) {
