@@ -86,6 +86,12 @@ double pass_error_cap(int pass, int passes, double range_span, double top) {
 /// brick order.
 constexpr size_t kBrickBudgetPerPoint = 48;
 
+/// The budget never falls below this: on a small volume 48 B per point is less than two
+/// bricks of 32 cells (about 9.6 MB each fresh), so neghip 64³ (12.6 MB) and headsq
+/// (18.3 MB) ran their first pass one brick at a time on an idle second core. A
+/// constant floor costs large volumes nothing, and a small one at most one more brick.
+constexpr size_t kBrickBudgetFloor = size_t(32) << 20;
+
 /// Lets a brick start when the bricks running leave room for it in the budget.
 class BrickAdmission {
 public:
@@ -241,7 +247,7 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             prev.push_back(std::move(r.mesh));
             r = mt::BrickResult{};
         };
-        BrickAdmission admission(kBrickBudgetPerPoint * size_t(n));
+        BrickAdmission admission(std::max(kBrickBudgetPerPoint * size_t(n), kBrickBudgetFloor));
         arena.execute([&] {
             tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
                 std::optional<BrickAdmission::Ticket> ticket;
