@@ -12,6 +12,9 @@
 //  - larger or boundary diamonds scan each tet row by row: the integer
 //    barycentric numerators D_i are affine along a row, so the x range inside the
 //    closed tet follows from four divisions, and the interpolant from adds.
+//    For exact integer evaluation, boundary diamonds of templated levels take
+//    their tets inside the data box from the level's span rows instead
+//    (boundary_error: the same errors, without the per-row divisions).
 // Errors are compared as |f*D - sum D_i f_i| / D with |D| a power of two: exact
 // for integer data (double or 128-bit accumulators, see compute_diamond_errors).
 #include <tbb/blocked_range2d.h>
