@@ -63,15 +63,18 @@ inline CodedSection coded(std::vector<std::byte> bytes, uint32_t mode, bool zstd
     return s;
 }
 
-/// The chunk's values in point order (§6.2), `w` bytes each, little-endian;
-/// `bits(idx)` gives the value at a field index.
-template <class Bits>
-std::vector<std::byte> gather_chunk(const Geometry& G, const HtChunk& c, int w, Bits&& bits) {
-    std::vector<std::byte> out(std::size_t(c.points) * std::size_t(w));
+/// The chunk's values in point order (§6.2), W bytes each, little-endian;
+/// `bits(idx)` gives the value at a field index. Row by row: along a row the
+/// index advances by a constant, and W is fixed so the store unrolls (the
+/// point-wise walk cost ~2% of an encode, for every chunk of both kinds).
+template <int W, class Bits>
+std::vector<std::byte> gather_chunk(const Geometry& G, const HtChunk& c, Bits&& bits) {
+    std::vector<std::byte> out(std::size_t(c.points) * std::size_t(W));
     std::byte* p = out.data();
-    G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
-        tlod::store_le(p, bits(G.index(x, y, z)), w);
-        p += w;
+    G.for_each_row(c.cycle, c.box, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
+        const int64_t didx = G.index_delta(step, 0, 0);
+        int64_t idx = G.index(x0, y, z);
+        for (int64_t x = x0; x <= x1; x += step, idx += didx, p += W) tlod::store_le(p, bits(idx), W);
     });
     return out;
 }
@@ -168,7 +171,7 @@ CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk&
         auto l = lattice();
         return l ? std::move(*l) : range;
     }
-    const auto raw = gather_chunk(G, c, w, [&](int64_t i) { return uint64_t(std::bit_cast<typename D::U>(v[i])); });
+    const auto raw = gather_chunk<w>(G, c, [&](int64_t i) { return uint64_t(std::bit_cast<typename D::U>(v[i])); });
     CodedSection best = choose_mode(std::move(range), raw, c.points, w, o);
     // Last, so a tie keeps the earlier modes (and a 3.3 file only when it pays).
     if (o.forced < 0 && tlod::section_mode(best.flags) != kModeConstant)
@@ -184,7 +187,7 @@ CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<cons
     CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
-        gather_chunk(G, c, 2, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });
+        gather_chunk<2>(G, c, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });
     return choose_mode(std::move(range), raw, c.diamonds, 2, o);
 }
 

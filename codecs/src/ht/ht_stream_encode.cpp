@@ -19,6 +19,7 @@
 // quarter of that for cycle 1, ...) and the sweep's coarse state.
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "tetlod/codecs/ht/ht_distributed.hpp"
@@ -87,7 +88,10 @@ std::vector<std::byte> scan_box(BoxPlanes& planes_, const HtDomain& d_, const Ge
     const Dims cd = HtErrorSweep::coarse_dims(d_);
     std::vector<std::byte> coarse(std::size_t(cd.count()) * sizeof(T));
     std::vector<T> buf;
-    const int64_t per = std::max<int64_t>(1, int64_t((std::size_t{32} << 20) / planes_.plane_bytes()));
+    // Up to 32 MiB of planes a read, but no more planes than the box has: the
+    // buffer is zero-filled, and 32 MiB of it was 3% of a small volume's encode.
+    const int64_t per = std::clamp<int64_t>(int64_t((std::size_t{32} << 20) / planes_.plane_bytes()), 1,
+                                            std::max<int64_t>(1, zto - zfrom + 1));
     buf.resize(std::size_t(per) * std::size_t(G_.nx * G_.ny));
     bool any = false;
     T lo{}, hi{};

@@ -125,8 +125,9 @@ public:
         for (const auto& p : partial_) b += p.size() * sizeof(Acc);
         for (const auto& lt : templates_) {
             for (const auto& tp : lt.point_templates) b += tp.entries.size() * sizeof(tp.entries[0]);
-            for (const auto& st : lt.span_templates)
-                b += st.spans.size() * sizeof(st.spans[0]) + st.tets.size() * sizeof(st.tets[0]);
+            for (const auto* spans : {&lt.span_templates, &lt.boundary_templates})
+                for (const auto& st : *spans)
+                    b += st.spans.size() * sizeof(st.spans[0]) + st.tets.size() * sizeof(st.tets[0]);
         }
         return b;
     }
