@@ -17,6 +17,7 @@
 #include <cstring>
 #include <limits>
 #include <numeric>
+#include <functional>
 #include <queue>
 
 #include "mt_decimate.hpp"
@@ -107,9 +108,13 @@ struct BrickDecimator {
         std::array<float, 4> ferr{0, 0, 0, 0};               // closed error of the face opposite each corner
         float err = 0;                                       // closed error
         uint32_t head = kNil;                                // owned point list
+        // Removed by a collapse (in the record's padding: a list of the removed tets
+        // took up to 8 B per tet with its doubling, the brick's largest array after
+        // the tets and their back links).
+        bool dead = false;
     };
+    static_assert(sizeof(TetRec) == 64);
     HugePageVector<TetRec> tets;
-    std::vector<uint32_t> free_tets;
     HugePageVector<uint32_t> prev_corner;  // per corner (4 * tet + slot): kNil at a chain's head
 
     // Per vertex (sized by the vertices, not the box).
@@ -347,7 +352,7 @@ struct BrickDecimator {
             }
         tets.reserve(tet_count);
         if (input.empty()) {
-            for (const auto& t : mt::reference_tets(grid, origin)) tets.push_back(TetRec{t});
+            mt::for_each_reference_tet(grid, origin, [&](const std::array<uint32_t, 4>& t) { tets.push_back(TetRec{t}); });
         } else {
             uint32_t next_owned = vertices;
             HandedTet t;
@@ -839,7 +844,7 @@ struct BrickDecimator {
             for (int j = 0; j < 4; ++j)
                 if (tets[t].v[j] != w) unlink_corner(tets[t].v[j], 4 * t + j);
             tets[t].head = kNil;
-            free_tets.push_back(t);
+            tets[t].dead = true;
         }
         newid.assign(ntv.size(), 0);
         for (size_t i = 0; i < star_w.size(); ++i) {
@@ -969,8 +974,19 @@ struct BrickDecimator {
     void run(const BrickProgress& progress) {
         init();
         uint64_t candidates = 0;
+        for (uint32_t v = 0; v < vertices; ++v) candidates += point[v].alive && !point[v].frozen;
+        // The heap holds at most one entry per free vertex (a vertex is pushed only when
+        // it has none: live_seq == 0), and each collapse removes one free vertex: sized
+        // once, neither grows by doubling (up to twice the entries, and both blocks while
+        // copying). Same pushes and pops, so the same order.
+        {
+            std::vector<Entry> storage;
+            storage.reserve(candidates);
+            heap = std::priority_queue<Entry>(std::less<Entry>(), std::move(storage));
+        }
+        out.updates.reserve(candidates);
         for (uint32_t v = 0; v < vertices; ++v)
-            if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0), ++candidates;
+            if (point[v].alive && !point[v].frozen) push_dirty(v, 0.0);
         while (!heap.empty()) {
             const Entry e = heap.top();
             heap.pop();
@@ -1020,8 +1036,6 @@ struct BrickDecimator {
             if (progress && st.commits % kCollapsesPerReport == 0) progress(st.commits, candidates);
         }
         // The decimated mesh, in slot order (the node state is already in `nodes`).
-        std::vector<uint8_t> dead(tets.size(), 0);
-        for (uint32_t t : free_tets) dead[t] = 1;
         BrickMesh& mesh = out.mesh;
         HandedTet h;
         std::vector<uint32_t> owned;
@@ -1036,11 +1050,11 @@ struct BrickDecimator {
         {  // exact size: the brick's arrays are still alive, so no growth slack on top
             size_t bytes = 0;
             for (uint32_t t = 0; t < tets.size(); ++t)
-                if (!dead[t]) hand_over(t), bytes += BrickMesh::record_size(h, owned.data());
+                if (!tets[t].dead) hand_over(t), bytes += BrickMesh::record_size(h, owned.data());
             mesh.bytes.reserve(bytes);
         }
         for (uint32_t t = 0; t < tets.size(); ++t)
-            if (!dead[t]) hand_over(t), mesh.append(h, owned.data());
+            if (!tets[t].dead) hand_over(t), mesh.append(h, owned.data());
     }
 };
 

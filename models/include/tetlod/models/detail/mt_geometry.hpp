@@ -116,10 +116,12 @@ struct Bary {
 /// central tet, each odd corner a tet with its 3 neighbours. Face diagonals match
 /// across cells. Positively oriented. `origin`: where g's point 0 sits in the whole
 /// grid (a brick), so that the parity, hence the tets, are those of the whole grid.
-inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const Pt& origin = {0, 0, 0}) {
+/// Calls f(tet) for each, in the order reference_tets lists them: a brick builds its
+/// records from them directly, without a list of them beside the records (16 B a tet,
+/// 80 B per grid point, while the brick's own arrays fill).
+template <class F>
+void for_each_reference_tet(const Grid& g, const Pt& origin, F&& f) {
     const int64_t po = int64_t(origin[0]) + origin[1] + origin[2];
-    std::vector<std::array<uint32_t, 4>> out;
-    out.reserve(size_t(5 * (g.X - 1) * (g.Y - 1) * (g.Z - 1)));
     for (int64_t k = 0; k + 1 < g.Z; ++k)
         for (int64_t j = 0; j + 1 < g.Y; ++j)
             for (int64_t i = 0; i + 1 < g.X; ++i) {
@@ -131,7 +133,7 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const 
                 auto emit = [&](std::array<uint32_t, 4> t) {
                     if (orient(g.coord(t[0]), g.coord(t[1]), g.coord(t[2]), g.coord(t[3])) < 0)
                         std::swap(t[2], t[3]);
-                    out.push_back(t);
+                    f(t);
                 };
                 emit(even);
                 for (int c = 0; c < 8; ++c) {
@@ -139,6 +141,12 @@ inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const 
                     emit({corner(c), corner(c ^ 1), corner(c ^ 2), corner(c ^ 4)});
                 }
             }
+}
+
+inline std::vector<std::array<uint32_t, 4>> reference_tets(const Grid& g, const Pt& origin = {0, 0, 0}) {
+    std::vector<std::array<uint32_t, 4>> out;
+    out.reserve(size_t(5 * (g.X - 1) * (g.Y - 1) * (g.Z - 1)));
+    for_each_reference_tet(g, origin, [&](const std::array<uint32_t, 4>& t) { out.push_back(t); });
     return out;
 }
 
