@@ -159,38 +159,28 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
     // far-face, interior and deep-interior tests reduce to x ranges worked out
     // once a row. Per diamond the same calls as a point-wise walk, in the same
     // order, hence the same bytes (this loop was ~460 instructions a diamond).
-    const int64_t h = F.h;
-    const auto& bm = G.box_max;
-    const auto& cb = F.cb;
     const LatticeView L = lat.view();
     for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
         const int cls = r.cls;
-        const bool far_yz = r.y + h > bm[1] || r.z + h > bm[2];
-        const int64_t far_from = bm[0] - h;  // x > far_from: the diamond touches the far x face
-        const bool in_yz = r.y - h >= cb[1] && r.z - h >= cb[2] && r.y + h <= cb[4] && r.z + h <= cb[5];
-        const int64_t in_lo = in_yz ? cb[0] + h : std::numeric_limits<int64_t>::max();
-        const int64_t in_hi = cb[3] - h;
-        const bool deep_yz = r.y - 3 * h >= cb[1] && r.z - 3 * h >= cb[2] && r.y + 2 * h <= cb[4] &&
-                             r.z + 2 * h <= cb[5];
-        const int64_t deep_lo = deep_yz ? cb[0] + 3 * h : std::numeric_limits<int64_t>::max();
-        const int64_t deep_hi = cb[3] - 2 * h;
+        // touches_far_face: from x = x0 on if y or z already touch, else past far_from.
+        const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
+        const ChunkFrame::XRange interior = F.interior_x(r.y, r.z), deep = F.deep_interior_x(r.y, r.z);
         const int64_t didx = G.index_delta(r.step, 0, 0);
         int64_t idx = G.index(r.x0, r.y, r.z);
         const int64_t ds = r.step >> c.cycle;
         int64_t s = lat.slot(r.x0, r.y, r.z);
         for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
-            const int far = (far_yz || x > far_from) ? 1 : 0;
+            const int far = x > far_from ? 1 : 0;
             const uint32_t q = quantize_error(e[std::size_t(idx)], m);
             enc.encode(models->inf[cls][far], q == qmax);
             if (q == qmax) {
                 L.set(s, 0);
                 continue;
             }
-            if (bound_is_error && x >= in_lo && x <= in_hi) {
+            if (bound_is_error && interior.contains(x)) {
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
-                const bool deep = x >= deep_lo && x <= deep_hi;
-                const int nb = deep ? 0 : std::min(5, rc::bit_length(L.neighbour_mean(s)));
+                const int nb = deep.contains(x) ? 0 : std::min(5, rc::bit_length(L.neighbour_mean(s)));
                 rc::encode_int(enc, models->m[cls][q != 0][nb], 0, false, 16);
                 L.set(s, 0);
                 continue;

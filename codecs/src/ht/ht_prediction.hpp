@@ -175,6 +175,20 @@ struct ChunkFrame {
         return x - 3 * h >= cb[0] && y - 3 * h >= cb[1] && z - 3 * h >= cb[2] && x + 2 * h <= cb[3] &&
                y + 2 * h <= cb[4] && z + 2 * h <= cb[5];
     }
+    /// The x values of a row (y, z) for which interior() / deep_interior() hold, so
+    /// that a row walk tests a range instead of six bounds per point.
+    struct XRange {
+        int64_t lo, hi;  // empty when lo > hi
+        bool contains(int64_t x) const { return x >= lo && x <= hi; }
+    };
+    XRange interior_x(int64_t y, int64_t z) const {
+        const bool yz = y - h >= cb[1] && z - h >= cb[2] && y + h <= cb[4] && z + h <= cb[5];
+        return yz ? XRange{cb[0] + h, cb[3] - h} : XRange{1, 0};
+    }
+    XRange deep_interior_x(int64_t y, int64_t z) const {
+        const bool yz = y - 3 * h >= cb[1] && z - 3 * h >= cb[2] && y + 2 * h <= cb[4] && z + 2 * h <= cb[5];
+        return yz ? XRange{cb[0] + 3 * h, cb[3] - 2 * h} : XRange{1, 0};
+    }
 };
 
 /// Per odd-axis mask: the coarse neighbours (±h on every odd axis) and the
