@@ -39,7 +39,10 @@ struct HtEncodeOptions;  // codecs/ht/ht_codec.hpp
 struct ContainerWriteOptions {
     bool ht = true, mt = false;  // models to store (at least one)
     bool pad = false;            // HT: embed the data in the enclosing (2^k+1)^3 cube
-    int zstd_level = 19;         // every section, 1..22
+    /// zstd level of every frame, 1..22: whole sections and the HT chunks'
+    /// fallback frames (spec §6.4 samples mode). Below 19 encodes faster for
+    /// larger files (docs/archival.md, "zstd level").
+    int zstd_level = 19;
     int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
     /// MT: mantissa bits of stored error bounds, 0..7 (each bound rounded up,

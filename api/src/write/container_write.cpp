@@ -89,12 +89,20 @@ void check_options(const ContainerWriteOptions& o) {
         throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
 }
 
+/// The HT encoder's options a container write implies (the one mapping:
+/// whole, streamed and distributed writes must code alike).
+HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
+    HtEncodeOptions e;
+    e.zstd_level = o.zstd_level;
+    e.chunk_zstd_level = o.zstd_level;  // "every section": the chunks' fallback frames too
+    e.brick_log2 = o.brick_log2;
+    e.error_mantissa_bits = o.error_bits;
+    e.table = o.table;
+    return e;
+}
+
 HtEncodeOptions encode_options(const ContainerWriteOptions& o) {
-    HtEncodeOptions eo;
-    eo.zstd_level = o.zstd_level;
-    eo.brick_log2 = o.brick_log2;
-    eo.error_mantissa_bits = o.error_bits;
-    eo.table = o.table;
+    HtEncodeOptions eo = ht_encode_fields(o);
     if (o.progress)
         eo.progress = [&o](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
     return eo;
@@ -267,12 +275,7 @@ tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOpti
 
 HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
     check_options(o);
-    HtEncodeOptions e;
-    e.zstd_level = o.zstd_level;
-    e.brick_log2 = o.brick_log2;
-    e.error_mantissa_bits = o.error_bits;
-    e.table = o.table;
-    return e;
+    return ht_encode_fields(o);
 }
 
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
@@ -333,14 +336,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         bo.pad = o.pad;
         const HtModel model = HtModel::build(std::move(volume), bo);
         progress("built HT", 0, 0);
-        HtEncodeOptions eo;
-        eo.zstd_level = o.zstd_level;
-        eo.brick_log2 = o.brick_log2;
-        eo.error_mantissa_bits = o.error_bits;
-        eo.table = o.table;
-        if (o.progress)
-            eo.progress = [&](std::size_t done, std::size_t total) { o.progress("encode HT", done, total); };
-        encode_ht(model, meta, w, eo);
+        encode_ht(model, meta, w, encode_options(o));
         progress("encoded HT", 0, 0);
         summary.ht_k = model.domain().k;
         summary.ht_max_level = model.domain().max_level();
