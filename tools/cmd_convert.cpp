@@ -212,7 +212,7 @@ const CommandRegistration registration{Command{
             ->capture_default_str()
             ->check(CLI::IsMember({"compact", "full"}))
             ->group(g);
-        sub.add_option("--level", a->level, "zstd level of every section")
+        sub.add_option("--level", a->level, "zstd level of every frame, the HT chunks' fallback frames included (below 19: faster, larger; docs/archival.md)")
             ->capture_default_str()
             ->check(CLI::Range(1, 22))
             ->group(g);
