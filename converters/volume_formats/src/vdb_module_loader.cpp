@@ -11,6 +11,7 @@
 
 #include <dlfcn.h>
 #include <cstdlib>
+#include <cstring>
 #include <unistd.h>
 
 #include <filesystem>
@@ -80,7 +81,13 @@ Loaded load() {
             last_error = what + " has no " + kEntryPoint + " (not a tetlod OpenVDB module of this version)";
             return nullptr;
         }
-        return entry();  // the handle stays open for the life of the process
+        const VdbModuleV1* table = entry();
+        if (std::strcmp(table->build_id, TETLOD_BUILD_ID) != 0) {
+            tried.push_back(what);
+            last_error = what + " is from another build (id " + table->build_id + ", this one " + TETLOD_BUILD_ID + ")";
+            return nullptr;  // left loaded (unloading OpenVDB is not safe), unused
+        }
+        return table;  // the handle stays open for the life of the process
     };
     // Named by the user: that file or an error, never a silent other one.
     if (const char* env = std::getenv("TETLOD_VDB_MODULE"); env && *env) {

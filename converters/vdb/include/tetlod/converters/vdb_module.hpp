@@ -18,6 +18,10 @@
 namespace tetlod {
 
 struct VdbModuleV1 {
+    /// The build's id (CMake's TETLOD_BUILD_ID): the loader refuses a module
+    /// from another build (an older install, another build tree), whose
+    /// Volume or VolumePlanes may not be laid out like its own.
+    const char* build_id;
     Volume (*read)(const std::string& path, const VolumeReadOptions& options);
     std::unique_ptr<VolumePlanes> (*open_planes)(const std::string& path, const VolumeReadOptions& options);
     std::vector<std::pair<std::string, std::string>> (*list_grids)(const std::string& path);
