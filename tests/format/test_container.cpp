@@ -441,3 +441,33 @@ TEST(LazyExtract, SameMeshAsFullDecode) {
         }
     }
 }
+
+// give_up_at: encode_ht stops once its chunk sections alone reach the limit
+// (the file cannot then be smaller), and a limit it stays under changes nothing.
+TEST(EncodeHt, GivesUpOnlyWhenTheFileCannotStayUnderTheLimit) {
+    const Volume v = tlodtest::make_volume(Dims{33, 29, 31}, ValueType::U16, 11);
+    const HtModel m = HtModel::build(v);
+    const Metadata meta = metadata_for_volume(v);
+    HtEncodeOptions eo;
+    eo.zstd_level = 3;
+    ContainerWriter full;
+    ASSERT_TRUE(encode_ht(m, meta, full, eo));
+    const std::vector<std::byte> reference = full.finish();
+    uint64_t chunk_bytes = 0;
+    const auto reader = ContainerReader::from_memory(reference);
+    ASSERT_TRUE(reader);
+    for (const SectionInfo& s : reader->sections())
+        if (s.type == kSectionHtField || s.type == kSectionHtErrors) chunk_bytes += s.stored_size;
+    ASSERT_GT(chunk_bytes, 1000u);
+    // Just above what the chunks take: completes, same bytes.
+    eo.give_up_at = chunk_bytes + 1;
+    ContainerWriter under;
+    EXPECT_TRUE(encode_ht(m, meta, under, eo));
+    EXPECT_TRUE(under.finish() == reference);
+    // At what the chunks take, or below: the file would reach it, so it gives up.
+    for (uint64_t limit : {chunk_bytes, chunk_bytes / 2, uint64_t{1}}) {
+        eo.give_up_at = limit;
+        ContainerWriter w;
+        EXPECT_FALSE(encode_ht(m, meta, w, eo)) << limit;
+    }
+}

@@ -132,21 +132,32 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
     HtBuildOptions bo;
     bo.pad = o.pad;
     std::optional<tlod::ContainerWriter> best;
+    std::size_t best_index = 0;
     ContainerWriteSummary summary;
-    for (std::size_t i = 0; i < fields.size(); ++i) {
+    // Ties go to the earlier field of the list (lossless, then the predicted
+    // one). The lossy fields are encoded first, as they usually win: a later
+    // candidate then stops once it is certain not to (give_up_at), which the
+    // lossless one, often twice their size, does about halfway.
+    std::vector<std::size_t> order;
+    for (std::size_t i = 1; i < fields.size(); ++i) order.push_back(i);
+    order.push_back(0);
+    for (const std::size_t i : order) {
         Volume& f = fields[i];
         eo.max_error = i == 0 ? 0.0 : max_error;
+        eo.give_up_at = best ? best->file_size() + (i < best_index ? 1 : 0) : 0;
         if (o.progress) o.progress("build HT", 0, 0);
         tlod::Metadata meta = provenance;
         meta.value_range = tlod::metadata_for_volume(f).value_range;
         const HtModel model = HtModel::build(std::move(f), bo);
         tlod::ContainerWriter w;
-        encode_ht(model, meta, w, eo);
+        const bool complete = encode_ht(model, meta, w, eo);
         summary.ht_k = model.domain().k;
         summary.ht_max_level = model.domain().max_level();
-        // Ties go to the earlier: lossless, then the predicted field.
-        if (!best || w.file_size() < best->file_size()) {
+        if (!complete) continue;
+        const uint64_t size = w.file_size();
+        if (!best || size < best->file_size() || (size == best->file_size() && i < best_index)) {
             best = std::move(w);
+            best_index = i;
             summary.max_error = eo.max_error;
         }
     }

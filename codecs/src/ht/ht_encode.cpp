@@ -10,7 +10,7 @@ namespace tetlod {
 
 using namespace ht_detail;
 
-void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
+bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
                const HtEncodeOptions& o) {
     if (o.brick_log2 < 1 || o.brick_log2 > 16)
         throw Error(ErrorCode::InvalidArgument, "brick_log2 must be in 1..16");
@@ -42,6 +42,7 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     // Parallel over chunks in batches so progress is reported from this thread.
     // Each chunk's mode depends on that chunk alone: same bytes for any thread count.
     const std::size_t batch = 64;
+    uint64_t coded_bytes = 0;  // of the chunk sections so far: the file will hold at least these
     for (std::size_t s = 0; s < chunks.size(); s += batch) {
         const std::size_t e = std::min(chunks.size(), s + batch);
         tbb::parallel_for(s, e, [&](std::size_t i) {
@@ -52,6 +53,10 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
             });
         });
         if (o.progress) o.progress(e, chunks.size());
+        for (std::size_t i = s; i < e; ++i) coded_bytes += fs[i].bytes.size() + es[i].bytes.size();
+        // Chunk sections alone (the table is compressed: not counted, its size
+        // need not grow with every entry), so a lower bound of the file.
+        if (o.give_up_at > 0 && coded_bytes >= o.give_up_at) return false;
     }
     for (std::size_t i = 0; i < chunks.size(); ++i) {
         writer.add_stored(tlod::kSectionHtField, fs[i].flags, uint32_t(chunks[i].cycle), chunks[i].brick,
@@ -59,6 +64,7 @@ void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
         writer.add_stored(tlod::kSectionHtErrors, es[i].flags, uint32_t(chunks[i].cycle), chunks[i].brick,
                           std::move(es[i].bytes), es[i].raw_size);
     }
+    return true;
 }
 
 void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,

@@ -46,6 +46,11 @@ struct HtEncodeOptions {
     tlod::TableLayout table = tlod::TableLayout::compact;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
+    /// > 0: encode_ht stops and returns false as soon as its chunk sections
+    /// alone reach this many bytes (the file is then certain to), leaving the
+    /// writer incomplete. For callers keeping the smallest of several
+    /// encodings: a candidate that cannot win is not finished.
+    uint64_t give_up_at = 0;
 };
 
 /// Lossy archival (format 3.1, spec §5.1): replaces, in place, every sample of
@@ -57,8 +62,9 @@ struct HtEncodeOptions {
 void quantize_predicted(Volume& volume, int brick_log2, double max_error);
 
 /// Appends METADATA and the HT sections of `model` to `writer` and sets the HT
-/// feature. `meta` describes the original (unpadded) volume.
-void encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
+/// feature. `meta` describes the original (unpadded) volume. False when it
+/// gave up (options.give_up_at), true otherwise.
+bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
                const HtEncodeOptions& options = {});
 /// encode_ht + atomic write. Throws tetlod::Error.
 void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
