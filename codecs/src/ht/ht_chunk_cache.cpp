@@ -8,6 +8,27 @@
 
 namespace tetlod::ht_detail {
 
+namespace {
+
+/// Copies n values of vs bytes from src to dst, the i-th at i·ds / i·dd values
+/// along each.
+template <std::size_t Vs>
+void copy_row_of(std::byte* dst, int64_t dd, const std::byte* src, int64_t ds, int64_t n) {
+    for (int64_t i = 0; i < n; ++i, dst += dd * int64_t(Vs), src += ds * int64_t(Vs)) std::memcpy(dst, src, Vs);
+}
+void copy_row(std::byte* dst, int64_t dd, const std::byte* src, int64_t ds, int64_t n, std::size_t vs) {
+    switch (vs) {
+        case 1: return copy_row_of<1>(dst, dd, src, ds, n);
+        case 2: return copy_row_of<2>(dst, dd, src, ds, n);
+        case 4: return copy_row_of<4>(dst, dd, src, ds, n);
+        case 8: return copy_row_of<8>(dst, dd, src, ds, n);
+        default:
+            for (int64_t i = 0; i < n; ++i) std::memcpy(dst + i * dd * int64_t(vs), src + i * ds * int64_t(vs), vs);
+    }
+}
+
+}  // namespace
+
 HtChunkCache::HtChunkCache(tlod::ContainerReader& reader, const HtLayout& layout, std::size_t budget_bytes,
                            bool errors)
     : r_(reader),
@@ -243,9 +264,13 @@ HtChunkCache::Prepared HtChunkCache::prepare(std::size_t id, bool errors, std::u
                     const Geometry& D = dep->window;
                     const std::byte* src = dep->field.data();
                     std::byte* dst = out->field.data();
-                    G_.for_each_point(tc, isect, [&](int64_t x, int64_t y, int64_t z) {
-                        std::memcpy(dst + std::size_t(W.index(x, y, z)) * vs,
-                                    src + std::size_t(D.index(x, y, z)) * vs, vs);
+                    // By rows, with the value size fixed: point by point (two
+                    // index computations and a memcpy of vs bytes each) this was
+                    // 2.5% of a 257^3 decode, under the cache's lock.
+                    G_.for_each_row(tc, isect, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
+                        copy_row(dst + std::size_t(W.index(x0, y, z)) * vs, W.index_delta(step, 0, 0),
+                                 src + std::size_t(D.index(x0, y, z)) * vs, D.index_delta(step, 0, 0),
+                                 (x1 - x0) / step + 1, vs);
                     });
                 }
     }

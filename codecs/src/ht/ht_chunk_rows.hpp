@@ -17,6 +17,23 @@ struct ChunkRow {
     int64_t y = 0, z = 0, x0 = 0, x1 = 0, step = 1;
 };
 
+/// Lattice strides (LatticeView: x 1, y px, z pxy) of the even axes of a row
+/// of class 0..2, for LatticeView::neighbour_mean_in_order: class 1 has one
+/// (even1), class 2 two (even1, even2), class 0 none (both stay 0).
+struct RowEvenStrides {
+    int64_t even1 = 0, even2 = 0;
+};
+inline RowEvenStrides row_even_strides(const ChunkRow& r, const LatticeView& lat) {
+    const int64_t h = r.step / 2;  // rows of classes 0..2 step by 2h (for_each_row_v2)
+    const bool odd[3] = {(r.x0 & h) != 0, (r.y & h) != 0, (r.z & h) != 0};
+    const int64_t stride[3] = {1, lat.px, lat.pxy};
+    RowEvenStrides e;
+    int found = 0;
+    for (int a = 0; a < 3; ++a)
+        if (!odd[a]) (found++ == 0 ? e.even1 : e.even2) = stride[a];
+    return e;
+}
+
 /// Calls f(row) for the chunk's rows in coding order 2 (the order of
 /// for_each_point_v2, which is defined through this walker).
 template <class F>

@@ -35,6 +35,9 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
                 // into it and the coder's state lived in memory, reloaded
                 // after every store of a decoded value.
                 auto row = [&](F& step_ref) {
+                    // A step may want what is fixed along the row (the decoder: its
+                    // even axes), told before its copy is made.
+                    if constexpr (requires { step_ref.begin_row(r); }) step_ref.begin_row(r);
                     auto run = [&](auto& step) __attribute__((always_inline)) {
                         for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
                             const Prediction pr =
@@ -102,11 +105,19 @@ struct FieldPointDecoder {
     FieldModels* models = nullptr;
     T* v = nullptr;
     LatticeView lat;
+    RowEvenStrides even;  // of the current row (classes 0..2)
+
+    void begin_row(const ChunkRow& r) {
+        if (r.cls < 3) even = row_even_strides(r, lat);
+    }
 
     [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         using D = Dom<T>;
         if (dec.overrun()) return;  // a valid stream never reads past its end: skip the rest
-        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
+        // Classes 0..2 read only the neighbours that can be set (same mean).
+        const uint64_t mean =
+            cls < 3 ? lat.neighbour_mean_in_order(cls, s, even.even1, even.even2) : lat.neighbour_mean(s);
+        const uint64_t act = pr.spread + 2 * mean;
         uint64_t mag;
         bool neg;
         rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, D::W);

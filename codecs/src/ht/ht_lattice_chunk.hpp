@@ -149,11 +149,18 @@ struct LatticePointDecoder {
     LatticeView lat;
     LatticeMap<T> L;
     bool outside = false;  // an index beyond +-2^52 or a value beyond the type
+    RowEvenStrides even;   // of the current row (classes 0..2), as FieldPointDecoder
+
+    void begin_row(const ChunkRow& r) {
+        if (r.cls < 3) even = row_even_strides(r, lat);
+    }
 
     void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         if (dec.overrun() || outside) return;  // a valid stream never gets here: skip the rest
         const auto p = L.predict(pr);
-        const uint64_t act = p.spread + 2 * lat.neighbour_mean(s);
+        const uint64_t mean =
+            cls < 3 ? lat.neighbour_mean_in_order(cls, s, even.even1, even.even2) : lat.neighbour_mean(s);
+        const uint64_t act = p.spread + 2 * mean;
         uint64_t mag;
         bool neg;
         rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, kLatticeResidualBits);
