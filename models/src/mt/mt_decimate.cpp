@@ -132,7 +132,7 @@ struct BrickDecimator {
     std::priority_queue<Entry> heap;
 
     // Scratch.
-    std::vector<uint32_t> star_w, pts, pfrom, nbrs;
+    std::vector<uint32_t> star_w, pts, pfrom, nbrs, chain_at;
     std::vector<std::array<uint32_t, 4>> ntv;
     // The new tets' numerators, computed when a point is first tested against the tet:
     // an evaluation often leaves a target at its first points (cut above the cutoff).
@@ -621,6 +621,22 @@ struct BrickDecimator {
     }
 
     void gather_points(uint32_t w) {
+        // The owned point lists are chains of dependent loads, one cache miss per point
+        // in the last passes. Walking all the star's chains a step at a time, only to
+        // prefetch, overlaps the misses of different tets; the walk below, in the order
+        // the evaluation needs, then finds the records in cache.
+        chain_at.resize(star_w.size());
+        size_t live = 0;
+        for (size_t i = 0; i < star_w.size(); ++i)
+            if ((chain_at[i] = tets[star_w[i]].head) != kNil) chain_at[live++] = chain_at[i];
+        while (live > 0) {
+            size_t still = 0;
+            for (size_t i = 0; i < live; ++i) {
+                const uint32_t p = point[chain_at[i]].next;
+                if (p != kNil) __builtin_prefetch(&point[p]), chain_at[still++] = p;
+            }
+            live = still;
+        }
         pts.clear(), pfrom.clear();
         pts.push_back(w), pfrom.push_back(kNil);
         for (size_t i = 0; i < star_w.size(); ++i)
