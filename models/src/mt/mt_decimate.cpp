@@ -408,6 +408,7 @@ struct BrickDecimator {
         std::vector<TriKey> v2;
         std::vector<uint64_t> bfaces;  // boundary faces (v,a,b) as edge keys of (a,b)
         std::vector<uint64_t> faces;   // scratch
+        std::vector<uint64_t> ghost;   // scratch: edges (a, kOmega)
     };
     std::vector<uint32_t> e0_;
     std::vector<uint64_t> e1_;
@@ -431,20 +432,28 @@ struct BrickDecimator {
             if (o[1] > o[2]) std::swap(o[1], o[2]);
             if (o[0] > o[1]) std::swap(o[0], o[1]);
             L.v2.push_back(tri_key(o[0], o[1], o[2]));
-            const uint64_t e01 = edge_key(o[0], o[1]), e02 = edge_key(o[0], o[2]), e12 = edge_key(o[1], o[2]);
-            L.v1.push_back(e01), L.v1.push_back(e02), L.v1.push_back(e12);
             for (const uint32_t u : o)
                 if (!point[u].in_link) point[u].in_link = 1, L.v0.push_back(u);
-            faces.push_back(e01), faces.push_back(e02), faces.push_back(e12);
+            faces.push_back(edge_key(o[0], o[1])), faces.push_back(edge_key(o[0], o[2])),
+                faces.push_back(edge_key(o[1], o[2]));
         });
         boundary_faces(faces, L.bfaces);
         if (!L.bfaces.empty()) L.v0.push_back(kOmega);
+        auto& ghost = L.ghost;
+        ghost.clear();
         for (const uint64_t f : L.bfaces) {
             const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
-            L.v1.push_back(edge_key(a, kOmega)), L.v1.push_back(edge_key(b, kOmega));
+            ghost.push_back(edge_key(a, kOmega)), ghost.push_back(edge_key(b, kOmega));
             L.v2.push_back(tri_key(a, b, kOmega));
         }
-        sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+        // The link's edges are the star's face edges, which boundary_faces has just
+        // sorted: deduplicated and merged with the ghost edges (never equal to a real
+        // one, as no vertex id is kOmega), they need no sort of their own.
+        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+        sort_unique(ghost);
+        L.v1.resize(faces.size() + ghost.size());
+        std::merge(faces.begin(), faces.end(), ghost.begin(), ghost.end(), L.v1.begin());
+        sort_unique(L.v0), sort_unique(L.v2);
     }
     /// The faces (v, a, b) of the star around v, as edge keys of (a, b): those of one
     /// tet only are on the boundary. Sorts `faces`; appends the boundary ones to `out`.
