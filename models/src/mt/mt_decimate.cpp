@@ -132,7 +132,7 @@ struct BrickDecimator {
     std::priority_queue<Entry> heap;
 
     // Scratch.
-    std::vector<uint32_t> star_w, pts, pfrom, nbrs;
+    std::vector<uint32_t> star_w, pts, pfrom, nbrs, chain_at;
     std::vector<std::array<uint32_t, 4>> ntv;
     // The new tets' numerators, computed when a point is first tested against the tet:
     // an evaluation often leaves a target at its first points (cut above the cutoff).
@@ -408,6 +408,7 @@ struct BrickDecimator {
         std::vector<TriKey> v2;
         std::vector<uint64_t> bfaces;  // boundary faces (v,a,b) as edge keys of (a,b)
         std::vector<uint64_t> faces;   // scratch
+        std::vector<uint64_t> ghost;   // scratch: edges (a, kOmega)
     };
     std::vector<uint32_t> e0_;
     std::vector<uint64_t> e1_;
@@ -416,7 +417,9 @@ struct BrickDecimator {
         std::sort(x.begin(), x.end());
         x.erase(std::unique(x.begin(), x.end()), x.end());
     }
-    void build_link(uint32_t v, Link& L) const {
+    /// Marks the vertices of Lk(v) `in_link` (link_ok clears them): each one is
+    /// pushed once, not once per tet, so its sort is of a dozen entries.
+    void build_link_marking(uint32_t v, Link& L) {
         L.v0.clear(), L.v1.clear(), L.v2.clear(), L.bfaces.clear();
         auto& faces = L.faces;
         faces.clear();
@@ -429,19 +432,28 @@ struct BrickDecimator {
             if (o[1] > o[2]) std::swap(o[1], o[2]);
             if (o[0] > o[1]) std::swap(o[0], o[1]);
             L.v2.push_back(tri_key(o[0], o[1], o[2]));
-            const uint64_t e01 = edge_key(o[0], o[1]), e02 = edge_key(o[0], o[2]), e12 = edge_key(o[1], o[2]);
-            L.v1.push_back(e01), L.v1.push_back(e02), L.v1.push_back(e12);
-            L.v0.push_back(o[0]), L.v0.push_back(o[1]), L.v0.push_back(o[2]);
-            faces.push_back(e01), faces.push_back(e02), faces.push_back(e12);
+            for (const uint32_t u : o)
+                if (!point[u].in_link) point[u].in_link = 1, L.v0.push_back(u);
+            faces.push_back(edge_key(o[0], o[1])), faces.push_back(edge_key(o[0], o[2])),
+                faces.push_back(edge_key(o[1], o[2]));
         });
         boundary_faces(faces, L.bfaces);
         if (!L.bfaces.empty()) L.v0.push_back(kOmega);
+        auto& ghost = L.ghost;
+        ghost.clear();
         for (const uint64_t f : L.bfaces) {
             const uint32_t a = uint32_t(f >> 32), b = uint32_t(f);
-            L.v1.push_back(edge_key(a, kOmega)), L.v1.push_back(edge_key(b, kOmega));
+            ghost.push_back(edge_key(a, kOmega)), ghost.push_back(edge_key(b, kOmega));
             L.v2.push_back(tri_key(a, b, kOmega));
         }
-        sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
+        // The link's edges are the star's face edges, which boundary_faces has just
+        // sorted: deduplicated and merged with the ghost edges (never equal to a real
+        // one, as no vertex id is kOmega), they need no sort of their own.
+        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+        sort_unique(ghost);
+        L.v1.resize(faces.size() + ghost.size());
+        std::merge(faces.begin(), faces.end(), ghost.begin(), ghost.end(), L.v1.begin());
+        sort_unique(L.v0), sort_unique(L.v2);
     }
     /// The faces (v, a, b) of the star around v, as edge keys of (a, b): those of one
     /// tet only are on the boundary. Sorts `faces`; appends the boundary ones to `out`.
@@ -510,10 +522,8 @@ struct BrickDecimator {
         sort_unique(L.v0), sort_unique(L.v1), sort_unique(L.v2);
     }
     bool link_ok(uint32_t w, uint32_t s) {
-        build_link(w, lw_);
+        build_link_marking(w, lw_);
         const bool omega = !lw_.v0.empty() && lw_.v0.back() == kOmega;
-        for (const uint32_t u : lw_.v0)
-            if (u != kOmega) point[u].in_link = 1;
         build_link_within(s, omega, ls_);
         for (const uint32_t u : lw_.v0)
             if (u != kOmega) point[u].in_link = 0;
@@ -560,10 +570,11 @@ struct BrickDecimator {
             const auto& v = tets[star_w[i]].v;
             StarFace& f = faces[i];
             f.slot = slot_of(v, w);
-            f.plane = mt::corner_plane(pts_of(v), f.slot);
             int k = 0;
             for (int j = 0; j < 4; ++j)
                 if (j != f.slot) f.o[size_t(k++)] = v[size_t(j)];
+            // The plane needs the face's three corners only (w's own position is not read).
+            f.plane = mt::corner_plane_of_face(c(f.o[0]), c(f.o[1]), c(f.o[2]), f.slot);
         }
     }
     // Builds the new tets of w -> s into ntv/new_from/old2new (star_faces(w) first);
@@ -593,8 +604,14 @@ struct BrickDecimator {
     }
     /// The numerators of new tet j (make_new_tets), computed on first use.
     const Bary& bary(size_t j) {
+        // Most calls find it ready (the locate loops ask every new tet per point): the test
+        // stays inline, the computation does not.
+        if (nb_ready[j]) [[likely]] return nb[j];
+        return make_bary(j);
+    }
+    [[gnu::noinline]] const Bary& make_bary(size_t j) {
         Bary& b = nb[j];
-        if (!nb_ready[j]) {
+        {
             const StarFace& f = faces[new_from[j]];
             std::array<Pt, 4> p;
             for (int k = 0; k < 4; ++k) p[size_t(k)] = k == f.slot ? new_at : c(ntv[j][size_t(k)]);
@@ -613,6 +630,22 @@ struct BrickDecimator {
     }
 
     void gather_points(uint32_t w) {
+        // The owned point lists are chains of dependent loads, one cache miss per point
+        // in the last passes. Walking all the star's chains a step at a time, only to
+        // prefetch, overlaps the misses of different tets; the walk below, in the order
+        // the evaluation needs, then finds the records in cache.
+        chain_at.resize(star_w.size());
+        size_t live = 0;
+        for (size_t i = 0; i < star_w.size(); ++i)
+            if ((chain_at[i] = tets[star_w[i]].head) != kNil) chain_at[live++] = chain_at[i];
+        while (live > 0) {
+            size_t still = 0;
+            for (size_t i = 0; i < live; ++i) {
+                const uint32_t p = point[chain_at[i]].next;
+                if (p != kNil) __builtin_prefetch(&point[p]), chain_at[still++] = p;
+            }
+            live = still;
+        }
         pts.clear(), pfrom.clear();
         pts.push_back(w), pfrom.push_back(kNil);
         for (size_t i = 0; i < star_w.size(); ++i)
@@ -649,13 +682,17 @@ struct BrickDecimator {
         // collected with a flag in their point records (read for the planes anyway), cleared
         // once they are; their order does not matter (ranked is sorted).
         star_faces(w);
-        nbrs.clear();
+        // Sized for every corner and cut to length: push_back is not inlined here, and
+        // this loop runs over every corner of every star evaluated.
+        nbrs.resize(3 * star_w.size());
+        size_t nn = 0;
         for (size_t i = 0; i < star_w.size(); ++i) {
             const StarFace& f = faces[i];
             link_max = std::max(link_max, double(tets[star_w[i]].ferr[size_t(f.slot)]));
             for (const uint32_t u : f.o)
-                if (!point[u].collected) point[u].collected = 1, nbrs.push_back(u);
+                if (!point[u].collected) point[u].collected = 1, nbrs[nn++] = u;
         }
+        nbrs.resize(nn);
         for (uint32_t u : nbrs) point[u].collected = 0;
         // Rank the geometrically legal targets by shape first: a later target then
         // wins only with a strictly smaller error, so ties stop scanning at once.
@@ -671,13 +708,22 @@ struct BrickDecimator {
                 for (int k = 0; k < 3; ++k) f.phys[size_t(k)] = physical(f.o[size_t(k)]);
                 f.shortest = mt::face_shortest_squared(f.phys[0], f.phys[1], f.phys[2]);
             }
+        // A target is legal iff no face refuses it, whatever the order they are asked in:
+        // the face that refused the previous target is asked first, since neighbouring
+        // targets tend to lie beyond the same face (most targets are refused).
+        size_t refused_by = 0;
+        auto refuses = [&](const StarFace& f, uint32_t s, const Pt& cs) {
+            return f.o[0] != s && f.o[1] != s && f.o[2] != s && f.plane.at(cs) <= 0;
+        };
         for (uint32_t s : nbrs) {
             if ((point[w].planes & ~point[s].planes) != 0 || point[s].frozen) continue;
             const Pt cs = c(s);
+            if (refuses(faces[refused_by], s, cs)) continue;
             bool legal = true;
-            for (const StarFace& f : faces)
-                if (f.o[0] != s && f.o[1] != s && f.o[2] != s && f.plane.at(cs) <= 0) {
+            for (size_t i = 0; i < faces.size(); ++i)
+                if (i != refused_by && refuses(faces[i], s, cs)) {
                     legal = false;
+                    refused_by = i;
                     break;
                 }
             if (!legal) continue;
@@ -924,12 +970,14 @@ struct BrickDecimator {
         uint32_t label = std::max(nodes.label[gs], nodes.label[gw]);
         float err = std::max(nodes.err[gs], nodes.err[gw]);
         gather_star(s, star_s_scratch);
-        link.clear();
+        link.resize(3 * star_s_scratch.size());  // cut to length below (no push_back per corner)
+        size_t nl = 0;
         for (uint32_t t : star_s_scratch) {
             err = std::max(err, tets[t].err);
             for (int i = 0; i < 4; ++i)
-                if (tets[t].v[i] != s) link.push_back(tets[t].v[i]);
+                if (tets[t].v[i] != s) link[nl++] = tets[t].v[i];
         }
+        link.resize(nl);
         std::sort(link.begin(), link.end());
         link.erase(std::unique(link.begin(), link.end()), link.end());
         for (uint32_t u : link) label = std::max(label, nodes.label[global(u)]);

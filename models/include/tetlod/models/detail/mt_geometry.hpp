@@ -48,12 +48,9 @@ struct CornerPlane {
     int64_t h = 0;
     int64_t at(const Pt& p) const { return g[0] * p[0] + g[1] * p[1] + g[2] * p[2] + h; }
 };
-inline CornerPlane corner_plane(const std::array<Pt, 4>& v, int k) {
-    // The face opposite k, oriented so that the sign alternates with k as in orient().
-    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-    const Pt& a = v[kFace[k][0]];
-    const Pt& b = v[kFace[k][1]];
-    const Pt& c = v[kFace[k][2]];
+/// corner_plane from the face opposite k alone: a, b, c are the other corners in slot
+/// order. A caller that has the face's corners (a star walk) need not build the fourth.
+inline CornerPlane corner_plane_of_face(const Pt& a, const Pt& b, const Pt& c, int k) {
     const int64_t sign = (k & 1) ? -1 : 1;
     const int64_t ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
     const int64_t wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
@@ -62,6 +59,11 @@ inline CornerPlane corner_plane(const std::array<Pt, 4>& v, int k) {
     pl.g = {-sign * nx, -sign * ny, -sign * nz};
     pl.h = sign * (a[0] * nx + a[1] * ny + a[2] * nz);
     return pl;
+}
+inline CornerPlane corner_plane(const std::array<Pt, 4>& v, int k) {
+    // The face opposite k, oriented so that the sign alternates with k as in orient().
+    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    return corner_plane_of_face(v[size_t(kFace[k][0])], v[size_t(kFace[k][1])], v[size_t(kFace[k][2])], k);
 }
 
 /// Barycentric numerators of a positively oriented tet as affine functions:
