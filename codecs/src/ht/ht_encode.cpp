@@ -70,7 +70,10 @@ bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
 void write_ht_container(const std::string& path, const HtModel& model, const tlod::Metadata& meta,
                         const HtEncodeOptions& options) {
     tlod::ContainerWriter w;
-    encode_ht(model, meta, w, options);
+    // A writer it gave up on is incomplete: never a file.
+    if (!encode_ht(model, meta, w, options))
+        throw Error(ErrorCode::InvalidArgument, "'" + path + "': the encoding reached give_up_at (" +
+                                                    std::to_string(options.give_up_at) + " bytes); nothing written");
     w.write(path);
 }
 

@@ -48,8 +48,9 @@ struct HtEncodeOptions {
     std::function<void(std::size_t, std::size_t)> progress;
     /// > 0: encode_ht stops and returns false as soon as its chunk sections
     /// alone reach this many bytes (the file is then certain to), leaving the
-    /// writer incomplete. For callers keeping the smallest of several
-    /// encodings: a candidate that cannot win is not finished.
+    /// writer incomplete (write_ht_container then throws, writing nothing).
+    /// For callers keeping the smallest of several encodings: a candidate that
+    /// cannot win is not finished. The streaming encoders ignore it.
     uint64_t give_up_at = 0;
 };
 
