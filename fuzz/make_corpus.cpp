@@ -6,7 +6,7 @@
 // the vectors' raw volumes (SOURCE_DATE_EPOCH=0): ht_mt_v3.2_u8_9x6x5_compact from
 // ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
 // ht_v3_i16_17x17x17_samples.raw --max-error 1%. The format 3.3 vectors (lattice chunks) are
-// among the spec's test vectors copied here.
+// among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3).
 #include <zlib.h>
 
 #include <cstdio>
@@ -134,8 +134,9 @@ int main(int argc, char** argv) {
     put(root / "ht_sections/v3_u8_9x9x5_sparse", ht_parts(sparse({9, 9, 5}), 1, false));
     put(root / "ht_sections/v3_u8_9x9x5_constant", ht_parts(sparse({9, 9, 5}), 1, false, 1));
     put(root / "ht_sections/v3_u16_9x5x5_linear", ht_parts(linear({9, 5, 5}), 1, false, 3));
-    // MT coding 2: stored bytes (mode 0) and header + raw payload (mode 1), with and
-    // without the field. (The coding-1 seeds, *_coding1_*, were written by the 2.1 writer and are kept.)
+    // MT coding 3 (format 3.4): stored bytes (mode 0) and header + raw payload (mode 1),
+    // with and without the field. (The coding-1 seeds, *_coding1_*, were written by the
+    // 2.1 writer and the coding-2 ones, *_coding2_*, by the 3.0-3.3 writers; both are kept.)
     for (auto [name, d, t] : {std::tuple{"u8_5x4x3", Dims{5, 4, 3}, ValueType::U8},
                               std::tuple{"f32_4x4x4", Dims{4, 4, 4}, ValueType::F32}}) {
         const Volume v = sample(d, t, 4);
@@ -147,7 +148,7 @@ int main(int argc, char** argv) {
             std::string stored = std::string(1, '\0') + std::string(b.begin(), b.end());
             put(root / "mt" / (std::string(name) + (with_field ? "_field" : "") + "_stored"), stored);
             // Mode 1 takes coding 1's raw layout (u64 length + bytes per stream):
-            // the frames of coding 2 decompressed one by one.
+            // the frames of coding 3 decompressed one by one.
             std::string mode1 = std::string(1, '\1') + std::string(b.begin(), b.begin() + 48);
             for (std::size_t at = 48; at < b.size();) {
                 uint64_t len = 0, zs = 0;

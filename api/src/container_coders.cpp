@@ -15,7 +15,8 @@ std::string describe(const std::string& coder, uint32_t type) {
     if (coder == "stored") return "raw bytes, no compression";
     if (coder == "zstd") return "one zstd frame (§4.2; the level is not recorded)";
     if (coder == "mt-zstd-payload")
-        return "the MT's streams in zstd: coding 2, 11 streams, a frame each; coding 1, 7 in one (§10.2)";
+        return "the MT's streams in zstd: coding 3, 12 streams (errors in label order), or coding 2, 11 streams, "
+               "a frame each; coding 1, 7 in one (§10.2)";
     if (coder == "unknown") return "unknown section type (skipped)";
     const bool field = type == tlod::kSectionHtField;
     if (coder == "ht-constant") return "every value of the chunk equal: one value (§6.4)";

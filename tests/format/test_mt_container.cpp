@@ -167,13 +167,15 @@ std::string mt_summary(const MtModel& m) {
 // (what the MT holds and extracts). Written by the 2.1 writer; kept.
 TEST(TestVectors, MtVectorsDecodeToTheirStoredContents) {
     const std::string dir = std::string(TETLOD_SPEC_DIR) + "/test-vectors/";
-    struct V { const char* name; bool with_ht; };
-    for (const V v : {V{"ht_mt_v2.1_u8_9x6x5", true}, V{"mt_v2.1_i16_6x5x4", false}}) {
+    struct V { const char* name; bool with_ht; bool current; };
+    // Format 2.1 vectors (MT_Coding 1) are kept as written: a 3.0 writer would
+    // write a 3.0 file (its HT in chunk modes), so they are no longer
+    // regenerated. The 3.4 vectors (MT_Coding 3) are this writer's, regenerated
+    // with TETLOD_REGENERATE_VECTORS=1 after a deliberate format change only.
+    for (const V v : {V{"ht_mt_v2.1_u8_9x6x5", true, false}, V{"mt_v2.1_i16_6x5x4", false, false},
+                      V{"ht_mt_v3.4_u8_9x6x5", true, true}, V{"mt_v3.4_i16_6x5x4", false, true}}) {
         const std::string base = dir + v.name;
-        // Format 2.1 vectors, kept as written: a 3.0 writer would write a 3.0
-        // file (its HT in chunk modes), so they are no longer regenerated.
-        constexpr bool kCurrentVersion = false;
-        if (kCurrentVersion && std::getenv("TETLOD_REGENERATE_VECTORS")) {
+        if (v.current && std::getenv("TETLOD_REGENERATE_VECTORS")) {
             Volume vol = tlodtest::make_volume(v.with_ht ? Dims{9, 6, 5} : Dims{6, 5, 4},
                                                v.with_ht ? ValueType::U8 : ValueType::I16, 42);
             vol.metadata["sample.purpose"] = "tlod MT test vector";

@@ -6,17 +6,25 @@
 //   payload: one zstd frame; raw = streams, each u64 length + bytes.
 //   Coding 1 (read only): 7 streams: base, offsets (3 zigzag varints per update),
 //     labels, errors (u16 codes), stars, masks (cut, exception count, gaps), field.
-//   Coding 2 (written): the same content in 11 streams, each holding one kind of
-//     symbol, because zstd's literal coder is order-0 per block: mixing small
-//     offsets with varint escapes, or the high and low bytes of error codes, or a
-//     mask's cut with its gaps, blurs the statistics it can exploit (2-10 % fewer
-//     bytes on the real volumes of the bench):
+//   Coding 2 (read; written on request): the same content in 11 streams, each
+//     holding one kind of symbol, because zstd's literal coder is order-0 per
+//     block: mixing small offsets with varint escapes, or the high and low bytes
+//     of error codes, or a mask's cut with its gaps, blurs the statistics it can
+//     exploit (2-10 % fewer bytes on the real volumes of the bench):
 //     0 base, 1 near offsets (one byte per update: (dx+2) + 5(dy+2) + 25(dz+2)
 //     when every component is in -2..2, else 125), 2 far offsets (3 zigzag varints
 //     per update whose near byte is 125), 3 labels, 4 error code high bytes,
 //     5 error code low bytes, 6 stars, 7 mask cuts, 8 mask exception counts,
 //     9 mask exceptions (the first as a signed offset from the cut, where the
 //     exceptions cluster; then gaps), 10 field.
+//   Coding 3 (written): 12 streams. Labels split into their low byte and a varint
+//     of the rest (a byte plane codes better than varints whose first byte mixes
+//     both), and error codes listed in increasing label order (ties in raster
+//     order), where they follow the decimation's order and nearly sort:
+//     0 base, 1 near offsets, 2 far offsets, 3 label low bytes, 4 label high
+//     parts (varint label >> 8), 5 error code high bytes, 6 error code low bytes
+//     (both in label order), 7 stars, 8 mask cuts, 9 mask exception counts,
+//     10 mask exceptions, 11 field.
 // Updates appear in raster order of their inserted point w, which is every grid
 // point that is not a vertex of the base mesh.
 #include <algorithm>
@@ -40,11 +48,33 @@ namespace {
 constexpr size_t kHeaderSize = 48;
 constexpr int kStreamsCoding1 = 7;
 constexpr int kStreamsCoding2 = 11;
-constexpr int kMaxStreams = kStreamsCoding2;
-/// Near-offset byte of coding 2 that sends the offset to the far stream.
+constexpr int kStreamsCoding3 = 12;
+constexpr int kMaxStreams = kStreamsCoding3;
+/// Near-offset byte of codings 2 and 3 that sends the offset to the far stream.
 constexpr uint8_t kFarOffset = 125;
 
-int stream_count(uint64_t coding) { return coding == 1 ? kStreamsCoding1 : kStreamsCoding2; }
+int stream_count(uint64_t coding) {
+    return coding == 1 ? kStreamsCoding1 : coding == 2 ? kStreamsCoding2 : kStreamsCoding3;
+}
+
+/// Positions 0..n-1 ordered by increasing label, ties in increasing position
+/// (coding 3's order of the error codes). A stable LSD radix sort on 16-bit
+/// digits: linear in n, so decoding a large MT does not pay an n log n sort.
+std::vector<uint32_t> label_order(const std::vector<uint32_t>& labels) {
+    const size_t n = labels.size();
+    std::vector<uint32_t> order(n), tmp(n);
+    for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+    uint32_t top = 0;
+    for (uint32_t l : labels) top = std::max(top, l);
+    for (int shift = 0; shift < 32 && (shift == 0 || (top >> shift) != 0); shift += 16) {
+        std::vector<uint32_t> count(65537, 0);
+        for (uint32_t i : order) ++count[((labels[i] >> shift) & 0xFFFF) + 1];
+        for (size_t d = 1; d < count.size(); ++d) count[d] += count[d - 1];
+        for (uint32_t i : order) tmp[count[(labels[i] >> shift) & 0xFFFF]++] = i;
+        order.swap(tmp);
+    }
+    return order;
+}
 
 void put_le(std::vector<uint8_t>& o, uint64_t v, int bytes) {
     for (int i = 0; i < bytes; ++i) o.push_back(uint8_t(v >> (8 * i)));
@@ -106,7 +136,7 @@ void encode_mask(const MtModel& m, size_t k, std::vector<uint8_t>& cuts, std::ve
     }
 }
 
-/// Where each symbol kind of an update comes from: the streams of coding 1 or 2.
+/// Where each symbol kind of an update comes from: the streams of coding 1, 2 or 3.
 struct UpdateStreams {
     Reader* near = nullptr;  // coding 2 only
     Reader* far = nullptr;   // coding 1: every offset
@@ -120,7 +150,9 @@ struct UpdateStreams {
 
     static UpdateStreams of(uint64_t coding, Reader* st) {
         if (coding == 1) return {nullptr, &st[1], &st[2], &st[3], nullptr, &st[4], &st[5], &st[5], &st[5]};
-        return {&st[1], &st[2], &st[3], &st[4], &st[5], &st[6], &st[7], &st[8], &st[9]};
+        if (coding == 2) return {&st[1], &st[2], &st[3], &st[4], &st[5], &st[6], &st[7], &st[8], &st[9]};
+        // Coding 3: labels and error codes are read up front (label_order), not here.
+        return {&st[1], &st[2], nullptr, nullptr, nullptr, &st[7], &st[8], &st[9], &st[10]};
     }
     /// s - w; false when a stream is exhausted or a near byte is out of range.
     bool offset(int64_t out[3]) {
@@ -181,16 +213,27 @@ Expected<std::vector<std::byte>> join_stream_frames(std::span<const std::byte> p
 }  // namespace
 
 std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
+    if (opt.coding != 2 && opt.coding != 3)
+        throw Error(ErrorCode::InvalidArgument, "MT: coding " + std::to_string(opt.coding) + " cannot be written (2 or 3)");
+    const bool c3 = opt.coding == 3;
+    const int nstreams = stream_count(uint64_t(opt.coding));
     const Dims& D = m.dims();
     const mt::Grid g(D);
     const int mb = std::clamp(opt.error_mantissa_bits, 0, 7);
-    std::vector<uint8_t> s[kStreamsCoding2];
-    std::vector<uint8_t>&near = s[1], &far = s[2], &labels = s[3], &errors_hi = s[4], &errors_lo = s[5],
-                           &stars = s[6], &cuts = s[7], &counts = s[8], &gaps = s[9], &field = s[10];
+    std::vector<uint8_t> s[kMaxStreams];
+    // Coding 2: 3 labels, 4/5 error bytes, 6.. the rest; coding 3 (file comment):
+    // 3/4 label parts, 5/6 error bytes, 7.. the rest.
+    const int after = c3 ? 7 : 6;
+    std::vector<uint8_t>&near = s[1], &far = s[2], &labels = s[3], &label_hi = s[4], &errors_hi = s[c3 ? 5 : 4],
+                           &errors_lo = s[c3 ? 6 : 5], &stars = s[after], &cuts = s[after + 1],
+                           &counts = s[after + 2], &gaps = s[after + 3], &field = s[nstreams - 1];
     for (const auto& t : m.base_tets())
         for (uint32_t v : t) put_le(s[0], v, 4);
     std::vector<uint32_t> by_w(size_t(D.count()), mt::kNil);
     for (size_t k = 0; k < m.updates().size(); ++k) by_w[m.updates()[k].w] = uint32_t(k);
+    std::vector<uint32_t> label_of;  // coding 3: per update in raster order
+    std::vector<uint16_t> code_of;
+    if (c3) label_of.reserve(m.updates().size()), code_of.reserve(m.updates().size());
     for (uint32_t w = 0; w < by_w.size(); ++w) {
         if (by_w[w] == mt::kNil) continue;
         const MtSplit& u = m.updates()[by_w[w]];
@@ -204,12 +247,21 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
             near.push_back(kFarOffset);
             for (int a = 0; a < 3; ++a) put_varint(far, zigzag(d[a]));
         }
-        put_varint(labels, u.label);
         const uint16_t code = quantize_error(u.error, mb);
-        errors_hi.push_back(uint8_t(code >> 8)), errors_lo.push_back(uint8_t(code));
+        if (c3) {
+            labels.push_back(uint8_t(u.label));
+            put_varint(label_hi, u.label >> 8);
+            label_of.push_back(u.label), code_of.push_back(code);
+        } else {
+            put_varint(labels, u.label);
+            errors_hi.push_back(uint8_t(code >> 8)), errors_lo.push_back(uint8_t(code));
+        }
         put_varint(stars, u.star);
         encode_mask(m, by_w[w], cuts, counts, gaps);
     }
+    if (c3)
+        for (uint32_t i : label_order(label_of))
+            errors_hi.push_back(uint8_t(code_of[i] >> 8)), errors_lo.push_back(uint8_t(code_of[i]));
     if (opt.include_field) {
         const auto* b = reinterpret_cast<const uint8_t*>(m.field().data.data());
         field.assign(b, b + m.field().data.size());
@@ -219,14 +271,14 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     // The frames are compressed in parallel (a frame depends on its stream
     // only, so the bytes are the same for any thread count): at level 19 they
     // were a tenth of a 129^3 convert's CPU, on one core.
-    std::vector<std::byte> frames[kStreamsCoding2];
-    tbb::parallel_for(0, kStreamsCoding2, [&](int i) {
+    std::vector<std::byte> frames[kMaxStreams];
+    tbb::parallel_for(0, nstreams, [&](int i) {
         if (!s[i].empty()) frames[i] = tlod::zstd_compress(std::as_bytes(std::span(s[i])), opt.zstd_level);
     });
     uint64_t raw_size = 0;
     std::vector<uint8_t> z;
     const bool stats = std::getenv("TETLOD_MT_STATS") != nullptr;
-    for (const auto& st : s) {
+    for (const auto& st : std::span(s, size_t(nstreams))) {
         raw_size += 8 + st.size();
         const std::vector<std::byte>& frame = frames[&st - s];
         if (stats)
@@ -240,7 +292,7 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     std::vector<uint8_t> out;
     out.reserve(kHeaderSize + z.size());
     for (char c : {'T', 'L', 'M', 'T'}) out.push_back(uint8_t(c));  // (insert trips a GCC 12 false -Wstringop-overflow)
-    put_le(out, kMtCodecVersion, 2);
+    put_le(out, uint64_t(opt.coding), 2);
     put_le(out, opt.include_field ? 1 : 0, 2);
     put_le(out, uint64_t(D.x), 4), put_le(out, uint64_t(D.y), 4), put_le(out, uint64_t(D.z), 4);
     put_le(out, uint8_t(m.field().type), 1);
@@ -259,7 +311,7 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
     if (std::memcmp(bytes.data(), "TLMT", 4) != 0) return fail(ErrorCode::BadMagic, "MT: bad magic");
     Reader h{bytes.data() + 4, bytes.data() + kHeaderSize};
     const uint64_t version = h.le(2), flags = h.le(2);
-    if (version != 1 && version != kMtCodecVersion)
+    if (version < 1 || version > kMtCodecVersion)
         return fail(ErrorCode::UnsupportedVersion, "MT: unsupported version " + std::to_string(version));
     const int nstreams = stream_count(version);
     if (flags & ~uint64_t(1)) return fail(ErrorCode::CorruptData, "MT: reserved flag bits set");
@@ -285,11 +337,11 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
         return fail(stored > bytes.size() - kHeaderSize ? ErrorCode::Truncated : ErrorCode::CorruptData,
                     "MT: payload size mismatch");
     // The raw payload holds at least 16 bytes per base tet, 7 per update (an
-    // offset (coding 2: one near byte; coding 1: 3 varints), a label, a 2-byte
-    // error code, a star size, a mask cut and exception count) and the field; at
-    // most a generous 64 per update.
+    // offset (codings 2, 3: one near byte; coding 1: 3 varints), a label (coding
+    // 3: a low byte and a varint), a 2-byte error code, a star size, a mask cut
+    // and exception count) and the field; at most a generous 64 per update.
     const uint64_t field_bytes = (flags & 1) ? n * value_size(vt) : 0;
-    const uint64_t min_raw = 8 * uint64_t(nstreams) + 16 * nbase + (version == 1 ? 9 : 7) * nupd + field_bytes;
+    const uint64_t min_raw = 8 * uint64_t(nstreams) + 16 * nbase + (version == 1 ? 9 : version == 2 ? 7 : 8) * nupd + field_bytes;
     const uint64_t max_raw = 8 * uint64_t(nstreams) + 16 * nbase + 64 * nupd + field_bytes + (uint64_t(1) << 16);
     if (raw_size > max_raw) return fail(ErrorCode::TooLarge, "MT: payload larger than its counts allow");
     if (raw_size < min_raw)
@@ -324,16 +376,37 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
     uint64_t nonbase = 0;
     for (uint8_t b : is_base) nonbase += !b;
     if (nonbase != nupd) return fail(ErrorCode::CorruptData, "MT: update count differs from removed points");
-    if (version == 1 ? st[3].left() != 2 * nupd : (st[4].left() != nupd || st[5].left() != nupd))
+    const int errors_at = version == 1 ? 3 : version == 2 ? 4 : 5;
+    if (version == 1 ? st[3].left() != 2 * nupd : (st[errors_at].left() != nupd || st[errors_at + 1].left() != nupd))
         return fail(ErrorCode::CorruptData, "MT: error stream size");
     if (version != 1 && st[1].left() != nupd) return fail(ErrorCode::CorruptData, "MT: offset stream size");
     UpdateStreams in = UpdateStreams::of(version, st);
+    const uint32_t max_code = max_error_code(int(mb));
+    // Coding 3: labels (a low byte and a varint each, in raster order) first,
+    // then the error codes, listed in label order, put back in raster order.
+    std::vector<uint32_t> labels3;
+    std::vector<uint16_t> codes3;
+    if (version == 3) {
+        if (st[3].left() != nupd) return fail(ErrorCode::CorruptData, "MT: label stream size");
+        labels3.resize(nupd);  // nupd bytes are there (checked above)
+        for (auto& l : labels3) {
+            const uint64_t lo = st[3].le(1), hi = st[4].varint();
+            if (!st[4].ok || hi >= (uint64_t(1) << 24) || (lo | hi) == 0)
+                return fail(ErrorCode::CorruptData, "MT: bad label");
+            l = uint32_t(lo | (hi << 8));
+        }
+        codes3.resize(nupd);
+        for (uint32_t i : label_order(labels3)) {
+            const uint64_t code = (st[5].le(1) << 8) | st[6].le(1);
+            if (code > max_code) return fail(ErrorCode::CorruptData, "MT: error code out of range");
+            codes3[i] = uint16_t(code);
+        }
+    }
     const mt::Grid g(D);
     std::vector<MtUpdate> ups;
     ups.reserve(nupd);
     std::vector<uint64_t> bits;
     uint64_t nbits = 0;
-    const uint32_t max_code = max_error_code(int(mb));
     for (uint32_t w = 0; w < n; ++w) {
         if (is_base[w]) continue;
         MtUpdate u;
@@ -345,10 +418,12 @@ Expected<MtModel> decode_mt(std::span<const uint8_t> bytes, const Volume* field)
         if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= D.x || c[1] >= D.y || c[2] >= D.z)
             return fail(ErrorCode::CorruptData, "MT: survivor outside the grid");
         u.s = g.index(c[0], c[1], c[2]);
-        const uint64_t label = in.labels->varint();
-        if (!in.labels->ok || label == 0 || label > 0xFFFFFFFFu) return fail(ErrorCode::CorruptData, "MT: bad label");
+        const size_t k = ups.size();
+        const uint64_t label = version == 3 ? labels3[k] : in.labels->varint();
+        if (version != 3 && (!in.labels->ok || label == 0 || label > 0xFFFFFFFFu))
+            return fail(ErrorCode::CorruptData, "MT: bad label");
         u.label = uint32_t(label);
-        const uint64_t code = in.error_code();
+        const uint64_t code = version == 3 ? codes3[k] : in.error_code();
         if (code > max_code) return fail(ErrorCode::CorruptData, "MT: error code out of range");
         u.error = dequantize_error(uint16_t(code), int(mb));
         const uint64_t d = in.stars->varint();

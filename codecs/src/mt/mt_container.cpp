@@ -92,7 +92,7 @@ Expected<MtLayout> read_mt_layout(tlod::ContainerReader& r) {
     const std::vector<std::byte>& hb = *hraw;
     if (std::memcmp(hb.data(), "TLMT", 4) != 0) return fail(ErrorCode::CorruptData, where + "MT_HEADER: bad magic");
     const uint64_t version = tlod::load_le(hb.data() + 4, 2), flags = tlod::load_le(hb.data() + 6, 2);
-    if (version != 1 && version != kMtCodecVersion)
+    if (version < 1 || version > kMtCodecVersion)
         return fail(ErrorCode::UnsupportedFeature, where + "MT_HEADER: unknown MT coding version " +
                                                        std::to_string(version));
     if (flags != (L.with_ht ? 0u : 1u))

@@ -3,10 +3,13 @@
 // the header and in the decompressed streams) failing cleanly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <random>
 
 #include "mt_test_util.hpp"
+#include "tetlod/codecs/error_quantizer.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/core/error.hpp"
 #include "tetlod/format/container.hpp"
@@ -31,15 +34,30 @@ TEST(MtCodec, RoundTripPassesTheChecker) {
                            std::tuple{Dims{10, 5, 8}, ValueType::I16, Field::Plateau}}) {
         SCOPED_TRACE(dims_str(d));
         const Built b = build(d, t, f);
-        for (bool with_field : {false, true}) {
+        for (auto [with_field, coding] : {std::pair{false, 3}, std::pair{true, 3}, std::pair{false, 2}}) {
+            SCOPED_TRACE("coding " + std::to_string(coding));
             MtEncodeOptions o;
             o.include_field = with_field;
+            o.coding = coding;
             const auto bytes = encode_mt(b.model, o);
+            EXPECT_EQ(bytes[4] | (bytes[5] << 8), coding);
             auto dec = decode_mt(bytes, with_field ? nullptr : &b.vol);
             ASSERT_TRUE(dec.ok()) << dec.failure().message;
             const MtModel& m = dec.value();
             EXPECT_EQ(m.updates().size(), b.model.updates().size());
             EXPECT_TRUE(m.base_tets() == b.model.base_tets());
+            // Codings 2 and 3 hold the same model: labels, offsets, stars and
+            // masks exactly, errors as the same upward codes.
+            std::vector<size_t> original_of_w(size_t(b.vol.dims.count()), SIZE_MAX);
+            for (size_t k = 0; k < b.model.updates().size(); ++k) original_of_w[b.model.updates()[k].w] = k;
+            for (size_t k = 0; k < m.updates().size(); ++k) {
+                const size_t j = original_of_w[m.updates()[k].w];
+                ASSERT_NE(j, SIZE_MAX) << k;
+                ASSERT_EQ(m.updates()[k].label, b.model.updates()[j].label) << k;
+                ASSERT_EQ(m.survivor(k), b.model.survivor(j)) << k;
+                ASSERT_EQ(m.updates()[k].star, b.model.updates()[j].star) << k;
+                ASSERT_EQ(quantize_error(m.updates()[k].error, 7), quantize_error(b.model.updates()[j].error, 7)) << k;
+            }
             EXPECT_TRUE(encode_mt(m, o) == bytes) << "re-encoding differs";
             const auto r = b.vol.range();
             std::vector<LodQuery> qs(4);
@@ -167,7 +185,9 @@ std::vector<uint8_t> reframe(const std::vector<uint8_t>& bytes, const std::vecto
 
 TEST(MtCodec, WritesCodingTwoWithElevenStreams) {
     const Built b = build({6, 5, 7}, ValueType::U8, Field::Noisy);
-    const auto bytes = encode_mt(b.model);
+    MtEncodeOptions o;
+    o.coding = 2;
+    const auto bytes = encode_mt(b.model, o);
     EXPECT_EQ(bytes[4] | (bytes[5] << 8), 2);
     const auto streams = unframe(bytes);
     ASSERT_EQ(streams.size(), 11u);
@@ -178,6 +198,58 @@ TEST(MtCodec, WritesCodingTwoWithElevenStreams) {
     EXPECT_TRUE(streams[10].empty());  // field not included
     EXPECT_TRUE(reframe(bytes, streams) != bytes);  // level 1, not the writer's 19
     ASSERT_TRUE(decode_mt(reframe(bytes, streams), &b.vol).ok());
+    o.coding = 4;
+    EXPECT_THROW(encode_mt(b.model, o), Error);
+}
+
+/// Coding 3 (spec §10.2): 12 streams; labels as a low-byte plane and varints of
+/// the rest, in raster order of w; error codes in increasing label order, ties
+/// in raster order. Checked against the model directly, not through the decoder.
+TEST(MtCodec, WritesCodingThreeWithErrorsInLabelOrder) {
+    const Built b = build({33, 31, 29}, ValueType::U16, Field::Smooth);  // labels above 255
+    const auto bytes = encode_mt(b.model);
+    EXPECT_EQ(bytes[4] | (bytes[5] << 8), 3);
+    const auto streams = unframe(bytes);
+    ASSERT_EQ(streams.size(), 12u);
+    const auto& ups = b.model.updates();
+    const size_t nu = ups.size();
+    ASSERT_EQ(streams[3].size(), nu);
+    ASSERT_EQ(streams[5].size(), nu);
+    ASSERT_EQ(streams[6].size(), nu);
+    EXPECT_TRUE(streams[11].empty());
+    // Updates in raster order of w, as the file lists them.
+    std::vector<size_t> raster(nu);
+    for (size_t k = 0; k < nu; ++k) raster[k] = k;
+    std::sort(raster.begin(), raster.end(), [&](size_t a, size_t c) { return ups[a].w < ups[c].w; });
+    size_t at = 0;
+    bool some_high = false;
+    for (size_t i = 0; i < nu; ++i) {
+        const uint32_t label = ups[raster[i]].label;
+        ASSERT_EQ(uint8_t(streams[3][i]), uint8_t(label)) << i;
+        uint64_t hi = 0;
+        for (int shift = 0;; shift += 7) {
+            const uint8_t byte = uint8_t(streams[4][at++]);
+            hi |= uint64_t(byte & 0x7F) << shift;
+            if (!(byte & 0x80)) break;
+        }
+        ASSERT_EQ(hi, label >> 8) << i;
+        some_high = some_high || hi != 0;
+    }
+    EXPECT_EQ(at, streams[4].size());
+    std::vector<size_t> by_label = raster;
+    std::stable_sort(by_label.begin(), by_label.end(), [&](size_t a, size_t c) { return ups[a].label < ups[c].label; });
+    for (size_t j = 0; j < nu; ++j) {
+        const uint16_t code = quantize_error(ups[by_label[j]].error, 7);
+        ASSERT_EQ(uint8_t(streams[5][j]), uint8_t(code >> 8)) << j;
+        ASSERT_EQ(uint8_t(streams[6][j]), uint8_t(code)) << j;
+    }
+    // The order matters: the model has distinct labels with distinct errors, so
+    // listing the codes in raster order would fail the loop above.
+    bool differs = false;
+    for (size_t j = 0; j < nu && !differs; ++j)
+        differs = quantize_error(ups[by_label[j]].error, 7) != quantize_error(ups[raster[j]].error, 7);
+    EXPECT_TRUE(differs);
+    EXPECT_TRUE(some_high) << "no label reached the varint stream";
 }
 
 /// Flips single bits of the 16-byte header of every stream in the stored
@@ -192,7 +264,7 @@ TEST(MtCodec, HostileStreamFramesAreRefused) {
         std::memcpy(&frame, bytes.data() + at + 8, 8);
         at += 16 + frame;
     }
-    ASSERT_EQ(heads.size(), 11u);
+    ASSERT_EQ(heads.size(), 12u);
     int refused = 0;
     for (size_t h : heads)
         for (size_t i = h; i < h + 16; ++i)
@@ -207,15 +279,17 @@ TEST(MtCodec, HostileStreamFramesAreRefused) {
                 EXPECT_EQ(r.failure().message.rfind("MT", 0), 0u) << r.failure().message;
                 ++refused;
             }
-    EXPECT_EQ(refused, 11 * 16 * 8);
+    EXPECT_EQ(refused, 12 * 16 * 8);
 }
 
 /// Flips bits of the decompressed streams, re-frames them, and decodes: the decoder
 /// must refuse with a decoder error code, or give a model whose extractions either
 /// fail with CorruptData or are valid, conforming meshes covering the box.
-TEST(MtCodec, HostileStreamsNeverCrash) {
+void hostile_streams_never_crash(int coding) {
     const Built b = build({6, 5, 7}, ValueType::U8, Field::Noisy);
-    const auto bytes = encode_mt(b.model);
+    MtEncodeOptions o;
+    o.coding = coding;
+    const auto bytes = encode_mt(b.model, o);
     const auto streams = unframe(bytes);
     size_t total = 0;
     for (const auto& st : streams) total += st.size();
@@ -252,11 +326,18 @@ TEST(MtCodec, HostileStreamsNeverCrash) {
             }
         }
     }
-    std::printf("[ mt ] hostile streams: %d refused, %d decoded; %d extractions valid, %d refused\n", refused,
-                decoded, extracted, extraction_refused);
+    std::printf("[ mt ] hostile streams, coding %d: %d refused, %d decoded; %d extractions valid, %d refused\n",
+                coding, refused, decoded, extracted, extraction_refused);
     // Both outcomes must occur, or the test checks nothing.
     EXPECT_GE(refused, 100);
     EXPECT_GE(extracted, 10);
+}
+
+TEST(MtCodec, HostileStreamsNeverCrash) {
+    for (int coding : {3, 2}) {
+        SCOPED_TRACE("coding " + std::to_string(coding));
+        hostile_streams_never_crash(coding);
+    }
 }
 
 /// Every single-bit flip of the 48-byte header: only the error mantissa bits

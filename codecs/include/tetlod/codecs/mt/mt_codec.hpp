@@ -15,8 +15,9 @@
 
 namespace tetlod {
 
-/// The coding encode_mt writes; decode_mt also reads coding 1.
-inline constexpr uint16_t kMtCodecVersion = 2;
+/// The coding encode_mt writes by default, and the newest decode_mt reads
+/// (it reads codings 1 to 3; spec/tlod-format.md §10.2).
+inline constexpr uint16_t kMtCodecVersion = 3;
 
 struct MtEncodeOptions {
     int zstd_level = 19;
@@ -24,6 +25,9 @@ struct MtEncodeOptions {
     int error_mantissa_bits = 7;
     /// Store the field samples too (otherwise decode_mt needs the field).
     bool include_field = false;
+    /// MT_Coding to write: 3 (default, format 3.4) or 2, which format 3.1-3.3
+    /// readers also read (12 and 11 streams, spec §10.2). Anything else throws.
+    int coding = kMtCodecVersion;
 };
 
 /// Encodes the model. Deterministic: the same model gives the same bytes (single-
