@@ -36,13 +36,22 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
                 // after every store of a decoded value.
                 auto row = [&](F& step_ref) {
                     // A step may want what is fixed along the row (the decoder: its
-                    // even axes), told before its copy is made.
-                    if constexpr (requires { step_ref.begin_row(r); }) step_ref.begin_row(r);
+                    // even axes, the lattice at the slot before the row's first point),
+                    // told before its copy is made.
+                    if constexpr (requires { step_ref.begin_row(r, s); }) step_ref.begin_row(r, s);
+                    else if constexpr (requires { step_ref.begin_row(r); }) step_ref.begin_row(r);
                     auto run = [&](auto& step) __attribute__((always_inline)) {
-                        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+                        // Everything the loop reads in locals: a decoded u8 value's
+                        // store may alias anything reached through a reference (the
+                        // row, the indices captured by reference), which the loop then
+                        // reloaded (and, for the indices, stored) at every point.
+                        const RowPredictor<T, Cls> Pl = P;
+                        const int64_t x1 = r.x1, xs = r.step, y = r.y, z = r.z;
+                        int64_t li = idx, ls = s;
+                        for (int64_t x = r.x0; x <= x1; x += xs, li += didx, ls += ds) {
                             const Prediction pr =
-                                P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
-                            step(Cls, pr, idx, s);
+                                Pl.fixed(x) ? Pl.at(v, li, x) : predict_v2(G, v, t, Cls, x, y, z, Fr.cb);
+                            step(Cls, pr, li, ls);
                         }
                     };
                     if constexpr (std::is_copy_assignable_v<F>) {
@@ -107,16 +116,23 @@ struct FieldPointDecoder {
     LatticeView lat;
     RowEvenStrides even;  // of the current row (classes 0..2)
 
-    void begin_row(const ChunkRow& r) {
-        if (r.cls < 3) even = row_even_strides(r, lat);
+    uint32_t wprev = 0;   // the lattice at the slot of x − 2h (classes 0..2)
+
+    /// s0: the slot of the row's first point.
+    void begin_row(const ChunkRow& r, int64_t s0) {
+        if (r.cls < 3) {
+            even = row_even_strides(r, lat);
+            wprev = lat.mag[s0 - 2];
+        }
     }
 
     [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         using D = Dom<T>;
         if (dec.overrun()) return;  // a valid stream never reads past its end: skip the rest
-        // Classes 0..2 read only the neighbours that can be set (same mean).
-        const uint64_t mean =
-            cls < 3 ? lat.neighbour_mean_in_order(cls, s, even.even1, even.even2) : lat.neighbour_mean(s);
+        // Classes 0..2 read only the neighbours that can be set (same mean),
+        // the previous point of the row from a register.
+        const uint64_t mean = cls < 3 ? lat.neighbour_mean_in_order_prev(cls, s, even.even1, even.even2, wprev)
+                                      : lat.neighbour_mean(s);
         const uint64_t act = pr.spread + 2 * mean;
         uint64_t mag;
         bool neg;
@@ -124,6 +140,7 @@ struct FieldPointDecoder {
         const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
         v[idx] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
         lat.set(s, mag);
+        wprev = LatticeView::stored(mag);
     }
 };
 
