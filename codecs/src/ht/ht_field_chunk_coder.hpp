@@ -144,6 +144,74 @@ struct FieldPointDecoder {
     }
 };
 
+/// walk_field_chunk for FieldPointDecoder, the same points in the same order
+/// with the same predictions and contexts, in two passes over blocks of a
+/// row: first what does not depend on the values the row decodes (the
+/// prediction and its spread, the neighbours' part of the context other than
+/// the previous point), then the range decoding. A point of a row of classes
+/// 0..2 is predicted from coarser points and points of earlier classes, and
+/// its context reads other rows and x ± h (another class): nothing the row
+/// itself sets, so the first pass sees the values the one-pass walk saw. The
+/// second pass, which carries the coder's dependent chain, then has few
+/// values live (in one pass they spilled, and the loop reloaded them per point).
+template <class T>
+void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLattice& lat, FieldPointDecoder<T>& f) {
+    const ChunkFrame Fr(G, c.cycle, c.box);
+    const int t = c.cycle;
+    for_each_row_v2(G, t, c.box, [&](const ChunkRow& row) {
+        dispatch_row_class(row, [&]<int Cls>(const ChunkRow& r) {
+            int64_t idx = G.index(r.x0, r.y, r.z);
+            int64_t s = lat.slot(r.x0, r.y, r.z);
+            const int64_t didx = G.index_delta(r.step, 0, 0), ds = r.step >> t;
+            if constexpr (Cls == 3) {
+                for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
+            } else {
+                using D = Dom<T>;
+                const RowPredictor<T, Cls> P(G, Fr, r);
+                const LatticeView lv = f.lat;
+                const RowEvenStrides even = row_even_strides(r, lv);
+                rc::Decoder dec = f.dec;
+                rc::IntModel* const models = f.models->m[Cls];
+                uint32_t wprev = lv.mag[s - 2];
+                constexpr int64_t kBlock = 64;
+                // Plain arrays, not Prediction / Others (whose member
+                // initializers made every row clear them).
+                int64_t pp[kBlock];
+                uint64_t psp[kBlock], osum[kBlock];
+                uint32_t on[kBlock];
+                T* const vv = v;  // a local: the field pointer was reloaded after every store
+                const int64_t x1 = r.x1, xs = r.step;
+                for (int64_t x = r.x0; x <= x1;) {
+                    const int64_t n = std::min<int64_t>(kBlock, (x1 - x) / xs + 1);
+                    for (int64_t i = 0, xi = x, ii = idx, si = s; i < n; ++i, xi += xs, ii += didx, si += ds) {
+                        const Prediction pr =
+                            P.fixed(xi) ? P.at(vv, ii, xi) : predict_v2(G, vv, t, Cls, xi, r.y, r.z, Fr.cb);
+                        pp[i] = pr.p;
+                        psp[i] = pr.spread;
+                        const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+                        osum[i] = o.sum;
+                        on[i] = o.n;
+                    }
+                    for (int64_t i = 0; i < n; ++i, idx += didx, s += ds) {
+                        if (dec.overrun()) continue;  // a valid stream never reads past its end: skip the rest
+                        const uint64_t act =
+                            psp[i] + 2 * LatticeView::mean_with_prev(LatticeView::Others{osum[i], on[i]}, wprev);
+                        uint64_t mag;
+                        bool neg;
+                        rc::decode_int(dec, models[activity_bucket(act)], mag, neg, D::W);
+                        const typename D::U rr = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
+                        vv[idx] = D::put(typename D::U(uint64_t(pp[i]) + uint64_t(rr)));
+                        lv.set(s, mag);
+                        wprev = LatticeView::stored(mag);
+                    }
+                    x += n * xs;
+                }
+                f.dec = dec;
+            }
+        });
+    });
+}
+
 /// False on a malformed stream.
 template <class T>
 bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<const std::byte> in) {
@@ -152,7 +220,7 @@ bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     FieldPointDecoder<T> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view()};
-    walk_field_chunk(G, v, c, lat, step);
+    decode_field_rows(G, v, c, lat, step);
     return !step.dec.bad_end();
 }
 
