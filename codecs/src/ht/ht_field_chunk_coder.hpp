@@ -4,6 +4,10 @@
 
 #include "ht_chunk_rows.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace tetlod::ht_detail {
 
 struct FieldModels {
@@ -183,7 +187,65 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
                 const int64_t x1 = r.x1, xs = r.step;
                 for (int64_t x = r.x0; x <= x1;) {
                     const int64_t n = std::min<int64_t>(kBlock, (x1 - x) / xs + 1);
-                    for (int64_t i = 0, xi = x, ii = idx, si = s; i < n; ++i, xi += xs, ii += didx, si += ds) {
+                    int64_t i = 0, xi = x, ii = idx, si = s;
+#if defined(__SSE2__)
+                    if constexpr (std::is_same_v<T, uint8_t>) {
+                        // u8 rows whose points lie two bytes apart (a chunk's
+                        // window, or cycle 0 of the whole field): eight predictions
+                        // at once, in 16-bit lanes (sums of at most 8 · 255 · 1, or
+                        // 4 · 255 + 2 · 2 · 255, fit), the same sums, shifts and
+                        // spread as RowPredictor::at. Only where the scalar walk
+                        // takes at() with the fine stencil too (or class 0), for all
+                        // eight points and a ninth: a 16-byte load then reads
+                        // nothing beyond what that ninth point's stencil reads.
+                        if (didx == 2) {
+                            const __m128i lo8 = _mm_set1_epi16(0x00FF);
+                            auto ld = [&](int k) {
+                                return _mm_and_si128(
+                                    _mm_loadu_si128(reinterpret_cast<const __m128i*>(vv + ii + P.off[k])), lo8);
+                            };
+                            for (; i + 8 < n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
+                                const int64_t xl = xi + 8 * xs;
+                                if (xl > P.coarse_hi) break;
+                                if (Cls > 0 && (xi < P.fine_lo || xl > P.fine_hi)) break;
+                                __m128i w = ld(0);
+                                __m128i sum = w, mn = w, mx = w;
+                                for (int k = 1; k < kCoarseCount<Cls>; ++k) {
+                                    w = ld(k);
+                                    sum = _mm_add_epi16(sum, w);
+                                    mn = _mm_min_epi16(mn, w);
+                                    mx = _mm_max_epi16(mx, w);
+                                }
+                                __m128i p;
+                                if constexpr (Cls == 0) {
+                                    p = _mm_srli_epi16(sum, 3);
+                                } else {
+                                    __m128i fine = _mm_setzero_si128();
+                                    for (int k = 0; k < kFineCount<Cls>; ++k) {
+                                        w = ld(kCoarseCount<Cls> + k);
+                                        fine = _mm_add_epi16(fine, w);
+                                        mn = _mm_min_epi16(mn, w);
+                                        mx = _mm_max_epi16(mx, w);
+                                    }
+                                    p = Cls == 1 ? _mm_srli_epi16(_mm_add_epi16(sum, _mm_add_epi16(fine, fine)), 3)
+                                                 : _mm_srli_epi16(_mm_add_epi16(_mm_add_epi16(sum, sum), fine), 3);
+                                }
+                                alignas(16) uint16_t pv[8], sv[8];
+                                _mm_store_si128(reinterpret_cast<__m128i*>(pv), p);
+                                _mm_store_si128(reinterpret_cast<__m128i*>(sv), _mm_sub_epi16(mx, mn));
+                                for (int j = 0; j < 8; ++j) {
+                                    pp[i + j] = pv[j];
+                                    psp[i + j] = sv[j];
+                                    const LatticeView::Others o =
+                                        lv.others_in_order(Cls, si + j * ds, even.even1, even.even2);
+                                    osum[i + j] = o.sum;
+                                    on[i + j] = o.n;
+                                }
+                            }
+                        }
+                    }
+#endif
+                    for (; i < n; ++i, xi += xs, ii += didx, si += ds) {
                         const Prediction pr =
                             P.fixed(xi) ? P.at(vv, ii, xi) : predict_v2(G, vv, t, Cls, xi, r.y, r.z, Fr.cb);
                         pp[i] = pr.p;
