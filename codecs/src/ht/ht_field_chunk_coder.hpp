@@ -200,14 +200,35 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
                         // nothing beyond what that ninth point's stencil reads.
                         if (didx == 2) {
                             const __m128i lo8 = _mm_set1_epi16(0x00FF);
-                            auto ld = [&](int k) {
-                                return _mm_and_si128(
-                                    _mm_loadu_si128(reinterpret_cast<const __m128i*>(vv + ii + P.off[k])), lo8);
-                            };
-                            for (; i + 8 < n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
-                                const int64_t xl = xi + 8 * xs;
-                                if (xl > P.coarse_hi) break;
-                                if (Cls > 0 && (xi < P.fine_lo || xl > P.fine_hi)) break;
+                            // Leading points before the fine stencil's range: scalar.
+                            if constexpr (Cls > 0)
+                                for (; i < n && xi < P.fine_lo && xi <= P.coarse_hi; ++i, xi += xs, ii += didx, si += ds) {
+                                    const Prediction pr = P.at(vv, ii, xi);
+                                    pp[i] = pr.p;
+                                    psp[i] = pr.spread;
+                                    const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+                                    osum[i] = o.sum;
+                                    on[i] = o.n;
+                                }
+                            for (; i + 8 <= n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
+                                const int64_t xlast = xi + 7 * xs;
+                                if (xlast > P.coarse_hi) break;
+                                if (Cls > 0 && (xi < P.fine_lo || xlast > P.fine_hi)) break;
+                                // The 16 bytes from each stencil point of the first:
+                                // its byte 15 is read by a ninth point's stencil when
+                                // there is one (fixed, in the fine range); otherwise
+                                // the 16 bytes from one before, whose byte 0 the
+                                // stencil of the point before the first read (the
+                                // row's previous point, fixed and in the fine range).
+                                const bool next = i + 8 < n && xlast + xs <= P.coarse_hi &&
+                                                  (Cls == 0 || xlast + xs <= P.fine_hi);
+                                const bool prev = i > 0 && (Cls == 0 || xi - xs >= P.fine_lo);
+                                if (!next && !prev) break;
+                                auto ld = [&](int k) {
+                                    const uint8_t* a = vv + ii + P.off[k];
+                                    return next ? _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)), lo8)
+                                                : _mm_srli_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a - 1)), 8);
+                                };
                                 __m128i w = ld(0);
                                 __m128i sum = w, mn = w, mx = w;
                                 for (int k = 1; k < kCoarseCount<Cls>; ++k) {
