@@ -77,3 +77,50 @@ TEST(NeighbourMean, InCodingOrderEqualsTheFullMeanOnEveryPoint) {
         }
     EXPECT_GT(points, 10000u);
 }
+
+TEST(NeighbourMean, RowTwoPassSplitEqualsTheFullMeanOnEveryPoint) {
+    // The field decoder (decode_field_rows) works out, for a whole row before
+    // decoding it, the context part of every point other than the previous
+    // point of the row (others_in_order), and carries that previous point's
+    // lattice value in a register (mean_with_prev). That gives the full mean
+    // only if nothing the row sets is among the others and the slot two
+    // before a point is the previous point's: checked at every point, in
+    // coding order, with random magnitudes set as a coder does.
+    using namespace tetlod::ht_detail;
+    Geometry G;
+    G.k = 5;
+    G.g = 1;
+    G.box_max = {32, 32, 32};
+    const std::array<int64_t, 6> boxes[] = {
+        {0, 0, 0, 32, 32, 32}, {0, 0, 0, 7, 7, 7}, {8, 16, 0, 15, 23, 7}, {3, 5, 7, 30, 29, 31}, {16, 16, 16, 32, 32, 32}};
+    uint64_t rng = 987654321, points = 0;
+    for (int t = 0; t < G.k; ++t)
+        for (const auto& box : boxes) {
+            std::vector<uint32_t> storage;
+            ChunkLattice lat(t, box, storage);
+            const LatticeView v = lat.view();
+            uint64_t mismatches = 0;
+            for_each_row_v2(G, t, box, [&](const ChunkRow& r) {
+                if (r.cls == 3) return;  // corners: the full mean, no split
+                const RowEvenStrides e = row_even_strides(r, v);
+                std::vector<LatticeView::Others> others;
+                for (int64_t x = r.x0; x <= r.x1; x += r.step)
+                    others.push_back(v.others_in_order(r.cls, lat.slot(x, r.y, r.z), e.even1, e.even2));
+                uint32_t wprev = v.mag[lat.slot(r.x0, r.y, r.z) - 2];
+                std::size_t i = 0;
+                for (int64_t x = r.x0; x <= r.x1; x += r.step, ++i) {
+                    const int64_t s = lat.slot(x, r.y, r.z);
+                    mismatches += LatticeView::mean_with_prev(others[i], wprev) != v.neighbour_mean(s);
+                    mismatches += v.neighbour_mean_in_order_prev(r.cls, s, e.even1, e.even2, wprev) !=
+                                  v.neighbour_mean(s);
+                    rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                    const uint64_t m = (rng >> 60) < 4 ? 0 : (rng >> 33) % ((rng >> 62) == 3 ? (1u << 27) : 300);
+                    v.set(s, m);
+                    wprev = LatticeView::stored(m);
+                    ++points;
+                }
+            });
+            EXPECT_EQ(mismatches, 0u) << "cycle " << t << " box " << box[0] << "," << box[1] << "," << box[2];
+        }
+    EXPECT_GT(points, 10000u);
+}

@@ -4,6 +4,10 @@
 
 #include "ht_chunk_rows.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace tetlod::ht_detail {
 
 struct FieldModels {
@@ -36,13 +40,22 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
                 // after every store of a decoded value.
                 auto row = [&](F& step_ref) {
                     // A step may want what is fixed along the row (the decoder: its
-                    // even axes), told before its copy is made.
-                    if constexpr (requires { step_ref.begin_row(r); }) step_ref.begin_row(r);
+                    // even axes, the lattice at the slot before the row's first point),
+                    // told before its copy is made.
+                    if constexpr (requires { step_ref.begin_row(r, s); }) step_ref.begin_row(r, s);
+                    else if constexpr (requires { step_ref.begin_row(r); }) step_ref.begin_row(r);
                     auto run = [&](auto& step) __attribute__((always_inline)) {
-                        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+                        // Everything the loop reads in locals: a decoded u8 value's
+                        // store may alias anything reached through a reference (the
+                        // row, the indices captured by reference), which the loop then
+                        // reloaded (and, for the indices, stored) at every point.
+                        const RowPredictor<T, Cls> Pl = P;
+                        const int64_t x1 = r.x1, xs = r.step, y = r.y, z = r.z;
+                        int64_t li = idx, ls = s;
+                        for (int64_t x = r.x0; x <= x1; x += xs, li += didx, ls += ds) {
                             const Prediction pr =
-                                P.fixed(x) ? P.at(v, idx, x) : predict_v2(G, v, t, Cls, x, r.y, r.z, Fr.cb);
-                            step(Cls, pr, idx, s);
+                                Pl.fixed(x) ? Pl.at(v, li, x) : predict_v2(G, v, t, Cls, x, y, z, Fr.cb);
+                            step(Cls, pr, li, ls);
                         }
                     };
                     if constexpr (std::is_copy_assignable_v<F>) {
@@ -107,16 +120,23 @@ struct FieldPointDecoder {
     LatticeView lat;
     RowEvenStrides even;  // of the current row (classes 0..2)
 
-    void begin_row(const ChunkRow& r) {
-        if (r.cls < 3) even = row_even_strides(r, lat);
+    uint32_t wprev = 0;   // the lattice at the slot of x − 2h (classes 0..2)
+
+    /// s0: the slot of the row's first point.
+    void begin_row(const ChunkRow& r, int64_t s0) {
+        if (r.cls < 3) {
+            even = row_even_strides(r, lat);
+            wprev = lat.mag[s0 - 2];
+        }
     }
 
     [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         using D = Dom<T>;
         if (dec.overrun()) return;  // a valid stream never reads past its end: skip the rest
-        // Classes 0..2 read only the neighbours that can be set (same mean).
-        const uint64_t mean =
-            cls < 3 ? lat.neighbour_mean_in_order(cls, s, even.even1, even.even2) : lat.neighbour_mean(s);
+        // Classes 0..2 read only the neighbours that can be set (same mean),
+        // the previous point of the row from a register.
+        const uint64_t mean = cls < 3 ? lat.neighbour_mean_in_order_prev(cls, s, even.even1, even.even2, wprev)
+                                      : lat.neighbour_mean(s);
         const uint64_t act = pr.spread + 2 * mean;
         uint64_t mag;
         bool neg;
@@ -124,8 +144,156 @@ struct FieldPointDecoder {
         const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
         v[idx] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
         lat.set(s, mag);
+        wprev = LatticeView::stored(mag);
     }
 };
+
+/// walk_field_chunk for FieldPointDecoder, the same points in the same order
+/// with the same predictions and contexts, in two passes over blocks of a
+/// row: first what does not depend on the values the row decodes (the
+/// prediction and its spread, the neighbours' part of the context other than
+/// the previous point), then the range decoding. A point of a row of classes
+/// 0..2 is predicted from coarser points and points of earlier classes, and
+/// its context reads other rows and x ± h (another class): nothing the row
+/// itself sets, so the first pass sees the values the one-pass walk saw. The
+/// second pass, which carries the coder's dependent chain, then has few
+/// values live (in one pass they spilled, and the loop reloaded them per point).
+template <class T>
+void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLattice& lat, FieldPointDecoder<T>& f) {
+    const ChunkFrame Fr(G, c.cycle, c.box);
+    const int t = c.cycle;
+    for_each_row_v2(G, t, c.box, [&](const ChunkRow& row) {
+        dispatch_row_class(row, [&]<int Cls>(const ChunkRow& r) {
+            int64_t idx = G.index(r.x0, r.y, r.z);
+            int64_t s = lat.slot(r.x0, r.y, r.z);
+            const int64_t didx = G.index_delta(r.step, 0, 0), ds = r.step >> t;
+            if constexpr (Cls == 3) {
+                for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) f(Cls, Prediction{}, idx, s);
+            } else {
+                using D = Dom<T>;
+                const RowPredictor<T, Cls> P(G, Fr, r);
+                const LatticeView lv = f.lat;
+                const RowEvenStrides even = row_even_strides(r, lv);
+                rc::Decoder dec = f.dec;
+                rc::IntModel* const models = f.models->m[Cls];
+                uint32_t wprev = lv.mag[s - 2];
+                constexpr int64_t kBlock = 64;
+                // Plain arrays, not Prediction / Others (whose member
+                // initializers made every row clear them).
+                int64_t pp[kBlock];
+                uint64_t psp[kBlock], osum[kBlock];
+                uint32_t on[kBlock];
+                T* const vv = v;  // a local: the field pointer was reloaded after every store
+                const int64_t x1 = r.x1, xs = r.step;
+                for (int64_t x = r.x0; x <= x1;) {
+                    const int64_t n = std::min<int64_t>(kBlock, (x1 - x) / xs + 1);
+                    int64_t i = 0, xi = x, ii = idx, si = s;
+#if defined(__SSE2__)
+                    if constexpr (std::is_same_v<T, uint8_t>) {
+                        // u8 rows whose points lie two bytes apart (a chunk's
+                        // window, or cycle 0 of the whole field): eight predictions
+                        // at once, in 16-bit lanes (sums of at most 8 · 255 · 1, or
+                        // 4 · 255 + 2 · 2 · 255, fit), the same sums, shifts and
+                        // spread as RowPredictor::at. Only where the scalar walk
+                        // takes at() with the fine stencil too (or class 0), for all
+                        // eight points and a ninth: a 16-byte load then reads
+                        // nothing beyond what that ninth point's stencil reads.
+                        if (didx == 2) {
+                            const __m128i lo8 = _mm_set1_epi16(0x00FF);
+                            // Leading points before the fine stencil's range: scalar.
+                            if constexpr (Cls > 0)
+                                for (; i < n && xi < P.fine_lo && xi <= P.coarse_hi; ++i, xi += xs, ii += didx, si += ds) {
+                                    const Prediction pr = P.at(vv, ii, xi);
+                                    pp[i] = pr.p;
+                                    psp[i] = pr.spread;
+                                    const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+                                    osum[i] = o.sum;
+                                    on[i] = o.n;
+                                }
+                            for (; i + 8 <= n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
+                                const int64_t xlast = xi + 7 * xs;
+                                if (xlast > P.coarse_hi) break;
+                                if (Cls > 0 && (xi < P.fine_lo || xlast > P.fine_hi)) break;
+                                // The 16 bytes from each stencil point of the first:
+                                // its byte 15 is read by a ninth point's stencil when
+                                // there is one (fixed, in the fine range); otherwise
+                                // the 16 bytes from one before, whose byte 0 the
+                                // stencil of the point before the first read (the
+                                // row's previous point, fixed and in the fine range).
+                                const bool next = i + 8 < n && xlast + xs <= P.coarse_hi &&
+                                                  (Cls == 0 || xlast + xs <= P.fine_hi);
+                                const bool prev = i > 0 && (Cls == 0 || xi - xs >= P.fine_lo);
+                                if (!next && !prev) break;
+                                auto ld = [&](int k) {
+                                    const uint8_t* a = vv + ii + P.off[k];
+                                    return next ? _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)), lo8)
+                                                : _mm_srli_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a - 1)), 8);
+                                };
+                                __m128i w = ld(0);
+                                __m128i sum = w, mn = w, mx = w;
+                                for (int k = 1; k < kCoarseCount<Cls>; ++k) {
+                                    w = ld(k);
+                                    sum = _mm_add_epi16(sum, w);
+                                    mn = _mm_min_epi16(mn, w);
+                                    mx = _mm_max_epi16(mx, w);
+                                }
+                                __m128i p;
+                                if constexpr (Cls == 0) {
+                                    p = _mm_srli_epi16(sum, 3);
+                                } else {
+                                    __m128i fine = _mm_setzero_si128();
+                                    for (int k = 0; k < kFineCount<Cls>; ++k) {
+                                        w = ld(kCoarseCount<Cls> + k);
+                                        fine = _mm_add_epi16(fine, w);
+                                        mn = _mm_min_epi16(mn, w);
+                                        mx = _mm_max_epi16(mx, w);
+                                    }
+                                    p = Cls == 1 ? _mm_srli_epi16(_mm_add_epi16(sum, _mm_add_epi16(fine, fine)), 3)
+                                                 : _mm_srli_epi16(_mm_add_epi16(_mm_add_epi16(sum, sum), fine), 3);
+                                }
+                                alignas(16) uint16_t pv[8], sv[8];
+                                _mm_store_si128(reinterpret_cast<__m128i*>(pv), p);
+                                _mm_store_si128(reinterpret_cast<__m128i*>(sv), _mm_sub_epi16(mx, mn));
+                                for (int j = 0; j < 8; ++j) {
+                                    pp[i + j] = pv[j];
+                                    psp[i + j] = sv[j];
+                                    const LatticeView::Others o =
+                                        lv.others_in_order(Cls, si + j * ds, even.even1, even.even2);
+                                    osum[i + j] = o.sum;
+                                    on[i + j] = o.n;
+                                }
+                            }
+                        }
+                    }
+#endif
+                    for (; i < n; ++i, xi += xs, ii += didx, si += ds) {
+                        const Prediction pr =
+                            P.fixed(xi) ? P.at(vv, ii, xi) : predict_v2(G, vv, t, Cls, xi, r.y, r.z, Fr.cb);
+                        pp[i] = pr.p;
+                        psp[i] = pr.spread;
+                        const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+                        osum[i] = o.sum;
+                        on[i] = o.n;
+                    }
+                    for (int64_t i = 0; i < n; ++i, idx += didx, s += ds) {
+                        if (dec.overrun()) continue;  // a valid stream never reads past its end: skip the rest
+                        const uint64_t act =
+                            psp[i] + 2 * LatticeView::mean_with_prev(LatticeView::Others{osum[i], on[i]}, wprev);
+                        uint64_t mag;
+                        bool neg;
+                        rc::decode_int(dec, models[activity_bucket(act)], mag, neg, D::W);
+                        const typename D::U rr = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
+                        vv[idx] = D::put(typename D::U(uint64_t(pp[i]) + uint64_t(rr)));
+                        lv.set(s, mag);
+                        wprev = LatticeView::stored(mag);
+                    }
+                    x += n * xs;
+                }
+                f.dec = dec;
+            }
+        });
+    });
+}
 
 /// False on a malformed stream.
 template <class T>
@@ -134,8 +302,8 @@ bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<
     auto models = std::make_unique<FieldModels>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
-    FieldPointDecoder<T> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view()};
-    walk_field_chunk(G, v, c, lat, step);
+    FieldPointDecoder<T> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view(), {}, 0};
+    decode_field_rows(G, v, c, lat, step);
     return !step.dec.bad_end();
 }
 

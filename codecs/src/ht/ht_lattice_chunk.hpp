@@ -151,15 +151,20 @@ struct LatticePointDecoder {
     bool outside = false;  // an index beyond +-2^52 or a value beyond the type
     RowEvenStrides even;   // of the current row (classes 0..2), as FieldPointDecoder
 
-    void begin_row(const ChunkRow& r) {
-        if (r.cls < 3) even = row_even_strides(r, lat);
+    uint32_t wprev = 0;    // the lattice at the slot of x − 2h, as FieldPointDecoder
+
+    void begin_row(const ChunkRow& r, int64_t s0) {
+        if (r.cls < 3) {
+            even = row_even_strides(r, lat);
+            wprev = lat.mag[s0 - 2];
+        }
     }
 
     void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         if (dec.overrun() || outside) return;  // a valid stream never gets here: skip the rest
         const auto p = L.predict(pr);
         const uint64_t mean =
-            cls < 3 ? lat.neighbour_mean_in_order(cls, s, even.even1, even.even2) : lat.neighbour_mean(s);
+            cls < 3 ? lat.neighbour_mean_in_order_prev(cls, s, even.even1, even.even2, wprev) : lat.neighbour_mean(s);
         const uint64_t act = p.spread + 2 * mean;
         uint64_t mag;
         bool neg;
@@ -173,6 +178,7 @@ struct LatticePointDecoder {
         }
         v[idx] = value;
         lat.set(s, mag);
+        wprev = LatticeView::stored(mag);
     }
 };
 
@@ -187,7 +193,7 @@ std::string decode_lattice_chunk(const Geometry& G, T* v, const HtChunk& c, doub
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     LatticePointDecoder<T> step_dec{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view(),
-                                    LatticeMap<T>(step)};
+                                    LatticeMap<T>(step), false, {}, 0};
     walk_field_chunk(G, v, c, lat, step_dec);
     if (step_dec.outside) return "lattice index outside +-2^52 or value outside the type";
     if (step_dec.dec.bad_end()) return "malformed lattice-coded stream";

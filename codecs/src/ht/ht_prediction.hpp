@@ -72,6 +72,69 @@ struct LatticeView {
         if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
         return sum / n;
     }
+    /// neighbour_mean_in_order(cls, s, even1, even2) with the slot of x − 2h
+    /// (the previous point of the row: rows of classes 0..2 step by 2h, two
+    /// slots) given as `wprev`, its value in the lattice (sat(mag) + 1, or 0
+    /// when unset), instead of loaded. Same sum and count, so the same mean.
+    /// The decoders keep it in a register: it is the only neighbour that
+    /// depends on the point decoded just before, and through the store and
+    /// reload of the lattice it was on every point's critical path; the sum
+    /// and count of the others are ready before that point is decoded.
+    [[gnu::always_inline]] uint64_t neighbour_mean_in_order_prev(int cls, int64_t s, int64_t even1, int64_t even2,
+                                                                 uint32_t wprev) const {
+        const uint32_t* q = mag + s;
+        uint64_t so = uint64_t(q[-2 * px]) + q[-2 * pxy];
+        uint32_t no = uint32_t(q[-2 * px] != 0) + uint32_t(q[-2 * pxy] != 0);
+        if (cls >= 1) {
+            so += uint64_t(q[-even1]) + q[even1];
+            no += uint32_t(q[-even1] != 0) + uint32_t(q[even1] != 0);
+        }
+        if (cls >= 2) {
+            so += uint64_t(q[-even2]) + q[even2];
+            no += uint32_t(q[-even2] != 0) + uint32_t(q[even2] != 0);
+        }
+        so -= no;  // the others' sum of magnitudes
+        const uint32_t pn = uint32_t(wprev != 0);
+        const uint64_t sum = so + wprev - pn;
+        const uint32_t n = no + pn;
+        if (sum == 0) return 0;
+        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
+        return sum / n;
+    }
+    /// The part of neighbour_mean_in_order_prev that does not depend on the
+    /// previous point of the row: the other neighbours' sum of magnitudes and
+    /// how many are set. None of them is a point of the row (they lie on other
+    /// rows, or at x ± h, another class), so it can be worked out for a whole
+    /// row before the row is decoded.
+    struct Others {
+        uint64_t sum = 0;
+        uint32_t n = 0;
+    };
+    [[gnu::always_inline]] Others others_in_order(int cls, int64_t s, int64_t even1, int64_t even2) const {
+        const uint32_t* q = mag + s;
+        uint64_t so = uint64_t(q[-2 * px]) + q[-2 * pxy];
+        uint32_t no = uint32_t(q[-2 * px] != 0) + uint32_t(q[-2 * pxy] != 0);
+        if (cls >= 1) {
+            so += uint64_t(q[-even1]) + q[even1];
+            no += uint32_t(q[-even1] != 0) + uint32_t(q[even1] != 0);
+        }
+        if (cls >= 2) {
+            so += uint64_t(q[-even2]) + q[even2];
+            no += uint32_t(q[-even2] != 0) + uint32_t(q[even2] != 0);
+        }
+        return Others{so - no, no};
+    }
+    /// neighbour_mean_in_order_prev from others_in_order and the previous point's lattice value.
+    [[gnu::always_inline]] static uint64_t mean_with_prev(const Others& o, uint32_t wprev) {
+        const uint32_t pn = uint32_t(wprev != 0);
+        const uint64_t sum = o.sum + wprev - pn;
+        const uint32_t n = o.n + pn;
+        if (sum == 0) return 0;
+        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
+        return sum / n;
+    }
+    /// The lattice value set() stores for magnitude m.
+    [[gnu::always_inline]] static uint32_t stored(uint64_t m) { return uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
     /// floor(x / n) = (x · ceil(2^37 / n)) >> 37 for x < 2^26 and 1 <= n <= 9:
     /// the product is x / n plus less than x / 2^37 < 2^-11, and the fraction
     /// of x / n is at most (n - 1) / n, which leaves 1 / n > 2^-11 of margin;
