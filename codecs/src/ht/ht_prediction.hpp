@@ -34,10 +34,13 @@ struct LatticeView {
             sum += w;
             n += w != 0;
         }
-        sum -= n;
-        // Most neighbourhoods are all zero residuals, and the rest small: a
-        // multiply by the reciprocal instead of a division, which was the
-        // largest single cost of this function in the decoder's profile.
+        return mean_of(sum - n, n);
+    }
+    /// floor(sum / n), 0 when sum is 0 (n may then be 0). Most neighbourhoods
+    /// are all zero residuals, and the rest small: a multiply by the reciprocal
+    /// instead of a division, which was the largest single cost of the mean in
+    /// the decoder's profile.
+    [[gnu::always_inline]] static uint64_t mean_of(uint64_t sum, uint32_t n) {
         if (sum == 0) return 0;
         if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
         return sum / n;
@@ -56,21 +59,7 @@ struct LatticeView {
     /// spends its time per point, and this was 9 loads of mostly zeros.
     [[gnu::always_inline]] uint64_t neighbour_mean_in_order(int cls, int64_t s, int64_t even1,
                                                             int64_t even2) const {
-        const uint32_t* q = mag + s;
-        uint64_t sum = uint64_t(q[-2]) + q[-2 * px] + q[-2 * pxy];
-        uint32_t n = uint32_t(q[-2] != 0) + uint32_t(q[-2 * px] != 0) + uint32_t(q[-2 * pxy] != 0);
-        if (cls >= 1) {
-            sum += uint64_t(q[-even1]) + q[even1];
-            n += uint32_t(q[-even1] != 0) + uint32_t(q[even1] != 0);
-        }
-        if (cls >= 2) {
-            sum += uint64_t(q[-even2]) + q[even2];
-            n += uint32_t(q[-even2] != 0) + uint32_t(q[even2] != 0);
-        }
-        sum -= n;
-        if (sum == 0) return 0;
-        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
-        return sum / n;
+        return mean_with_prev(others_in_order(cls, s, even1, even2), mag[s - 2]);
     }
     /// neighbour_mean_in_order(cls, s, even1, even2) with the slot of x − 2h
     /// (the previous point of the row: rows of classes 0..2 step by 2h, two
@@ -82,24 +71,7 @@ struct LatticeView {
     /// and count of the others are ready before that point is decoded.
     [[gnu::always_inline]] uint64_t neighbour_mean_in_order_prev(int cls, int64_t s, int64_t even1, int64_t even2,
                                                                  uint32_t wprev) const {
-        const uint32_t* q = mag + s;
-        uint64_t so = uint64_t(q[-2 * px]) + q[-2 * pxy];
-        uint32_t no = uint32_t(q[-2 * px] != 0) + uint32_t(q[-2 * pxy] != 0);
-        if (cls >= 1) {
-            so += uint64_t(q[-even1]) + q[even1];
-            no += uint32_t(q[-even1] != 0) + uint32_t(q[even1] != 0);
-        }
-        if (cls >= 2) {
-            so += uint64_t(q[-even2]) + q[even2];
-            no += uint32_t(q[-even2] != 0) + uint32_t(q[even2] != 0);
-        }
-        so -= no;  // the others' sum of magnitudes
-        const uint32_t pn = uint32_t(wprev != 0);
-        const uint64_t sum = so + wprev - pn;
-        const uint32_t n = no + pn;
-        if (sum == 0) return 0;
-        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
-        return sum / n;
+        return mean_with_prev(others_in_order(cls, s, even1, even2), wprev);
     }
     /// The part of neighbour_mean_in_order_prev that does not depend on the
     /// previous point of the row: the other neighbours' sum of magnitudes and
@@ -127,11 +99,7 @@ struct LatticeView {
     /// neighbour_mean_in_order_prev from others_in_order and the previous point's lattice value.
     [[gnu::always_inline]] static uint64_t mean_with_prev(const Others& o, uint32_t wprev) {
         const uint32_t pn = uint32_t(wprev != 0);
-        const uint64_t sum = o.sum + wprev - pn;
-        const uint32_t n = o.n + pn;
-        if (sum == 0) return 0;
-        if (sum < kReciprocalLimit) return (sum * kReciprocal[n]) >> kReciprocalShift;
-        return sum / n;
+        return mean_of(o.sum + wprev - pn, o.n + pn);
     }
     /// The lattice value set() stores for magnitude m.
     [[gnu::always_inline]] static uint32_t stored(uint64_t m) { return uint32_t(std::min<uint64_t>(m, 0xFFFFFFFEu) + 1); }
