@@ -17,18 +17,25 @@ if [ "$#" -eq 0 ]; then targets=("${all[@]}"); else targets=("$@"); fi
 declare -A corpus_of=([tlod_reader]=reader [ht_sections]=ht_sections [mt]=mt [metadata]=metadata
                       [nrrd]=nrrd [metaimage]=metaimage [hdf5_reader]=hdf5 [vdb_reader]=vdb)
 declare -A timeout_of=([hdf5_reader]=30 [vdb_reader]=30)
-# UBSan stays recoverable so scripts/ubsan.supp can silence reports inside system
+# TETLOD_BUILD_FUZZERS instruments every library (ASan, UBSan, coverage). UBSan
+# stays recoverable so scripts/ubsan.supp can silence reports inside system
 # headers (oneTBB); halt_on_error=1 below makes every other report fatal.
-san="-fsanitize=address,undefined -fno-omit-frame-pointer"
 generator=()
 if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
-if [ ! -f build-fuzz/CMakeCache.txt ]; then
-  CC=clang CXX=clang++ cmake -S . -B build-fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+# FUZZ_BUILD_DIR reuses a tree configured with TETLOD_BUILD_FUZZERS=ON, e.g. the
+# sanitized test tree (scripts/test-sanitized.sh builds the fuzz targets too; CI
+# fuzzes there). Without it, ./build-fuzz is configured for fuzzing alone.
+build="${FUZZ_BUILD_DIR:-build-fuzz}"
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  CC=clang CXX=clang++ cmake -S . -B "$build" "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DTETLOD_BUILD_FUZZERS=ON -DTETLOD_BUILD_TESTS=OFF -DTETLOD_BUILD_BENCH=OFF \
     -DTETLOD_WITH_OPENVDB=ON -DTETLOD_WITH_HDF5=ON -DTETLOD_WITH_OPENMESH=OFF \
-    -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" >/dev/null
+    -DTETLOD_WITH_PYTHON=OFF -DTETLOD_WITH_MPI=OFF >/dev/null
+elif ! grep -q '^TETLOD_BUILD_FUZZERS:BOOL=ON' "$build/CMakeCache.txt"; then
+  echo "fuzz: $build is not configured with TETLOD_BUILD_FUZZERS=ON" >&2
+  exit 2
 fi
-cmake --build build-fuzz --parallel "${FUZZ_BUILD_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
+cmake --build "$build" --parallel "${FUZZ_BUILD_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
 # FUZZ_WORK_DIR keeps the corpora, logs and artifacts of a longer campaign.
 if [ -n "${FUZZ_WORK_DIR:-}" ]; then
   work="$FUZZ_WORK_DIR"
@@ -45,7 +52,7 @@ for t in "${targets[@]}"; do
   # -timeout: an input taking longer is reported as a hang (a failure).
   ASAN_OPTIONS=detect_leaks=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:suppressions="$(pwd)/scripts/ubsan.supp" \
-    ./build-fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
+    "$build"/fuzz/fuzz_"$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
     -timeout="${timeout_of[$t]:-10}" -artifact_prefix="$work/$t.artifacts/" \
     -print_final_stats=1 "$work/$t" >"$work/$t.log" 2>&1 || { tail -n 60 "$work/$t.log"; echo "fuzz: fuzz_$t FAILED"; exit 1; }
   # The last stats line is the fuzzer's own (isolated children of the HDF5/VDB

@@ -189,7 +189,7 @@ int run_compare(const CompareArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration compare_registration{Command{
     "compare", "Build HT and MT of a volume (or load a container's), run every query, write a Markdown report", 45,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<CompareArgs>();

@@ -178,7 +178,7 @@ int run_convert(const ConvertArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration convert_registration{Command{
     "convert", "Convert a volume into a .tlod container (HT and/or MT, lossless field)", 20,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ConvertArgs>();

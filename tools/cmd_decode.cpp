@@ -179,7 +179,7 @@ int run_decode(const DecodeArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration decode_registration{Command{
     "decode", "Decode a .tlod container to a volume: the original (bit-exact) or a LOD of it", 23,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<DecodeArgs>();

@@ -107,7 +107,7 @@ int run_demo(const DemoArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{
+const CommandRegistration demo_registration{
     Command{"demo", "Run the pipeline on the built-in volumes and write meshes to compare", 90,
             [](CLI::App& sub) -> std::function<int()> {
                 auto a = std::make_shared<DemoArgs>();

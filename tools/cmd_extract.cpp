@@ -179,7 +179,7 @@ int run_extract(const ExtractArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration extract_registration{Command{
     "extract", "Build a model of a volume and write a level-of-detail tetrahedral mesh", 20,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<ExtractArgs>();

@@ -200,7 +200,7 @@ int run_info(const InfoArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration info_registration{Command{
     "info", "Describe a .tlod container (reads only its metadata)", 21,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<InfoArgs>();

@@ -82,7 +82,7 @@ int run_isosurface(const IsoArgs& a) {
 #endif
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration isosurface_registration{Command{
     "isosurface", "Extract isosurfaces as a triangle mesh (PLY, OBJ, OFF, STL)", 25,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<IsoArgs>();

@@ -42,7 +42,7 @@ int run_sample(const SampleArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{
+const CommandRegistration sample_registration{
     Command{"sample", "Write a built-in analytic volume as a raw file", 10,
             [](CLI::App& sub) -> std::function<int()> {
                 auto args = std::make_shared<SampleArgs>();

@@ -67,7 +67,7 @@ int run_stats(const StatsArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration stats_registration{Command{
     "stats", "Measure a model: tets vs error, queries, shape quality, storage, times", 40,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<StatsArgs>();

@@ -62,7 +62,7 @@ int run_verify(const VerifyArgs& a) {
     return 0;
 }
 
-const CommandRegistration registration{Command{
+const CommandRegistration verify_registration{Command{
     "verify", "Check every checksum and structural rule of a .tlod container", 22,
     [](CLI::App& sub) -> std::function<int()> {
         auto a = std::make_shared<VerifyArgs>();

@@ -205,6 +205,9 @@ std::string case_name(const SynthCase& c) {
     return dims_str(c.dims) + "_" + value_type_name(c.type) + "_" + field_name(c.field);
 }
 
+// ctest's list shows the case by name, not by its bytes (padding included).
+void PrintTo(const SynthCase& c, std::ostream* os) { *os << case_name(c); }
+
 class HtSynthetic : public ::testing::TestWithParam<SynthCase> {};
 
 TEST_P(HtSynthetic, QueriesPassTheOracle) {
@@ -402,6 +405,8 @@ struct RealCase {
     Dims dims;
     ValueType type;
 };
+
+void PrintTo(const RealCase& c, std::ostream* os) { *os << c.file; }
 
 class HtRealData : public ::testing::TestWithParam<RealCase> {};
 

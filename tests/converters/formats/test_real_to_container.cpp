@@ -58,6 +58,8 @@ struct Pair {
     const char* other;  // relative to the data folder (HDF5: with the dataset path)
 };
 
+void PrintTo(const Pair& p, std::ostream* os) { *os << p.name; }
+
 class RealToContainer : public ::testing::TestWithParam<Pair> {};
 
 TEST_P(RealToContainer, SameContainerAsTheRawOriginal) {
