@@ -8,10 +8,11 @@
 # instrumentation on top of the sanitizers), so that CI fuzzes without compiling
 # every library a third time: FUZZ_BUILD_DIR=build-asan bash scripts/fuzz.sh 20.
 #
-# A few equivalence tests that repeat the same code paths on larger volumes (the
-# release suite runs them in seconds; under ASan each takes minutes) are left
-# out here; smaller tests of the same paths run. TETLOD_SANITIZED_ALL=1 runs
-# them too.
+# A few equivalence and oracle tests that repeat the same code paths on larger
+# volumes (the release suite runs them in seconds; here, under ASan with the
+# fuzzers' coverage instrumentation, each takes minutes) are left out; smaller
+# tests of the same paths run, and so does every hostile-input, corrupt-file
+# and decoder test. TETLOD_SANITIZED_ALL=1 runs them too.
 #   bash scripts/test-sanitized.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,7 +34,7 @@ export ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:abort_on_error=0:detect_stack
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:suppressions="$(pwd)/../scripts/ubsan.supp"
 export LSAN_OPTIONS=suppressions="$(pwd)/../scripts/lsan.supp":print_suppressions=0
 heavy=(
-  'Awkward/LazyExtractCases.SameMeshAsTheFullDecodeForEveryCache/(33x29x31|40x9x23) '
+  'Awkward/LazyExtractCases.SameMeshAsTheFullDecodeForEveryCache/(33x29x31|40x9x23|21x13x6) '
   'Streaming.ContainerExtractionWritesTheSameBytes'
   'Streaming.InMemoryModelsWriteTheSameBytes'
   'Dims/HtSynthetic.QueriesPassTheOracle/(33x33x33_u8_noisy|40x33x20_u8_plateau|33x33x33_i16_smooth|40x33x20_f64_smooth)'
@@ -47,6 +48,12 @@ heavy=(
   'MtPassCaps\.'
   'CliMeshOutputs.(CompareOnAContainerMeasuresItsStoredModels|CompareWritesAReportWithItsPlots)'
   'Lossy.BoundedMemoryStreamsTwoCandidates'
+  'CliMeshOutputs.StatsJsonIsConsistent'
+  'CliReproducible.PlaneByPlaneConversionGivesTheInMemoryBytes'
+  'MtBuildProgress.OneLargeBrickMovesBeforeItEnds'
+  # The real volumes of ../shared/data (when present): HT and MT oracles at size.
+  'SharedData/HtRealData\.'
+  'MtRealData\.'
 )
 exclude=()
 if [ "${TETLOD_SANITIZED_ALL:-0}" != 1 ]; then
