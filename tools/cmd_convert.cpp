@@ -25,6 +25,7 @@ struct ConvertArgs {
     bool pad = false;
     std::vector<std::string> meta;
     int level = 19;
+    bool level_given = false;
     int brick_log2 = 4;
     int error_bits = 4;
     int mt_error_bits = 7;
@@ -108,6 +109,8 @@ int run_convert(const ConvertArgs& a) {
     wo.mt = with_mt;
     wo.pad = a.pad;
     wo.zstd_level = a.level;
+    // An explicit --level is the level of every frame, the MT's large streams too.
+    if (a.level_given) wo.mt_large_stream_zstd_level = a.level;
     wo.brick_log2 = a.brick_log2;
     wo.error_bits = a.error_bits;
     wo.mt_error_bits = a.mt_error_bits;
@@ -212,9 +215,12 @@ const CommandRegistration convert_registration{Command{
             ->capture_default_str()
             ->check(CLI::IsMember({"compact", "full"}))
             ->group(g);
-        sub.add_option("--level", a->level, "zstd level of every frame, the HT chunks' fallback frames included (below 19: faster, larger; docs/archival.md)")
+        sub.add_option("--level", a->level,
+                       "zstd level of every frame, the HT chunks' fallback frames included (below 19: faster, "
+                       "larger; docs/archival.md). Default: 19, but 12 for MT streams above 1 MiB (docs/mt.md §5)")
             ->capture_default_str()
             ->check(CLI::Range(1, 22))
+            ->each([a](const std::string&) { a->level_given = true; })
             ->group(g);
         sub.add_option("--brick-log2", a->brick_log2,
                        "Bricks of cycle t span 2^(t+1+N) grid steps (smaller: finer box reads)")

@@ -1,5 +1,6 @@
 // .tlod containers from Python: what one holds (info, models), writing one from
 // a volume file (convert), and decoding its volume back (decode).
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -58,13 +59,15 @@ py::dict info_dict(const ContainerInfo& info) {
 }
 
 py::dict convert(const std::string& input, const std::string& output, bool ht, bool mt, bool pad,
-                 int zstd_level, py::kwargs kwargs) {
+                 std::optional<int> zstd_level, py::kwargs kwargs) {
     const VolumeReadOptions read = read_options(kwargs);
     ContainerWriteOptions options;
     options.ht = ht;
     options.mt = mt;
     options.pad = pad;
-    options.zstd_level = zstd_level;
+    // A level given is the level of every frame (as the CLI's --level); none:
+    // the library's default (19, 12 for the MT's streams above 1 MiB).
+    if (zstd_level) options.zstd_level = options.mt_large_stream_zstd_level = *zstd_level;
     options.source_path = input;
     options.converter = "tetlod (Python)";
     ContainerWriteSummary summary;
@@ -116,7 +119,7 @@ void bind_containers(py::module_& m) {
     m.def("is_container", &is_container_path, py::arg("path"),
           "True when path names a .tlod container (by its first bytes, or its extension).");
     m.def("convert", &convert, py::arg("input"), py::arg("output"), py::arg("ht") = true,
-          py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = 19,
+          py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = py::none(),
           "Converts a volume file into a .tlod container holding the HT and/or the MT "
           "(lossless field). Volume keywords as for read_volume. Returns a summary dict.");
     m.def(

@@ -154,3 +154,14 @@ def test_mt_only_container_defaults_to_the_mt(volume, work):
     assert tetlod.extract(path, error="2%").model == "MT"
     with pytest.raises(tetlod.Error, match="mt_only.tlod"):
         tetlod.extract(path, model="ht", error=0)
+
+
+def test_convert_takes_a_zstd_level_or_none(volume, work):
+    # None (the default): the library's levels; a number: the level of every frame.
+    default = tetlod.convert(volume[0], str(work / "level_default.tlod"), mt=True)
+    fast = tetlod.convert(volume[0], str(work / "level_1.tlod"), mt=True, zstd_level=1)
+    explicit = tetlod.convert(volume[0], str(work / "level_19.tlod"), mt=True, zstd_level=19)
+    assert fast["bytes"] > default["bytes"]
+    assert explicit["bytes"] == default["bytes"]  # no stream of this volume is above 1 MiB
+    with pytest.raises(tetlod.Error):
+        tetlod.convert(volume[0], str(work / "level_23.tlod"), zstd_level=23)

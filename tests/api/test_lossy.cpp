@@ -102,8 +102,9 @@ TEST(Lossy, EveryTypeRoundTripsWithinE) {
                 // lattice chunk mode (spec §6.4), which a lossless file never does.
                 EXPECT_EQ(info.header.version_minor, info.max_error > 0 && info.header.version_minor == 3 ? 3 : 2);
                 EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, info.max_error > 0);
-                if (field == test::Field::Smooth && stated >= double(range_of(v)) / 100)
+                if (field == test::Field::Smooth && stated >= double(range_of(v)) / 100) {
                     EXPECT_GT(info.max_error, 0);  // a smooth field at 1%: the lossy file wins
+                }
                 // The planes overload reads the volume whole for a lossy field: same bytes.
                 const std::string streamed = tmp("rt_stream.tlod");
                 auto planes = planes_of(v);

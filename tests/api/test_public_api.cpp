@@ -178,6 +178,17 @@ TEST(PublicApi, MtErrorBitsRoundStoredBoundsUp) {
         EXPECT_EQ(e.code(), ErrorCode::InvalidArgument);
     }
     EXPECT_FALSE(fs::exists(tmp("mt_bits8.tlod")));
+    wo.mt_error_bits = 7;
+    for (const int level : {-1, 23}) {
+        wo.mt_large_stream_zstd_level = level;
+        try {
+            write_container(volume, tmp("mt_large_level.tlod"), wo);
+            ADD_FAILURE() << "MT large-stream level " << level << " accepted";
+        } catch (const Error& e) {
+            EXPECT_EQ(e.code(), ErrorCode::InvalidArgument);
+        }
+        EXPECT_FALSE(fs::exists(tmp("mt_large_level.tlod")));
+    }
 }
 
 TEST(PublicApi, CorruptContainerIsAnErrorNamingTheFile) {

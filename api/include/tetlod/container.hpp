@@ -43,6 +43,10 @@ struct ContainerWriteOptions {
     /// fallback frames (spec §6.4 samples mode). Below 19 encodes faster for
     /// larger files (docs/archival.md, "zstd level").
     int zstd_level = 19;
+    /// MT: zstd level of its streams above 1 MiB raw, no higher than zstd_level;
+    /// 0: zstd_level. Level 19 on them costs about 2 CPU s per MB for some 5 %
+    /// (257^3: 278 CPU s at 19, 34 at 12, for 5.4 % more MT bytes; docs/mt.md §5).
+    int mt_large_stream_zstd_level = 12;
     int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
     /// MT: mantissa bits of stored error bounds, 0..7 (each bound rounded up,

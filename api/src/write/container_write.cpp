@@ -76,6 +76,7 @@ void check_range(const char* what, int value, int lo, int hi) {
 void check_options(const ContainerWriteOptions& o) {
     if (!o.ht && !o.mt) throw Error(ErrorCode::InvalidArgument, "write_container: no model requested");
     check_range("zstd level", o.zstd_level, 1, 22);
+    check_range("MT large-stream zstd level", o.mt_large_stream_zstd_level, 0, 22);
     check_range("brick_log2", o.brick_log2, 1, 16);
     check_range("error bits", o.error_bits, 0, 7);
     check_range("MT error bits", o.mt_error_bits, 0, 7);
@@ -355,6 +356,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     if (mt) {
         MtEncodeOptions mo;
         mo.zstd_level = o.zstd_level;
+        mo.large_stream_zstd_level = o.mt_large_stream_zstd_level;
         mo.error_mantissa_bits = o.mt_error_bits;
         encode_mt_container(*mt, meta, w, o.ht, mo);
         summary.mt_updates = mt->updates().size();

@@ -272,8 +272,12 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     // only, so the bytes are the same for any thread count): at level 19 they
     // were a tenth of a 129^3 convert's CPU, on one core.
     std::vector<std::byte> frames[kMaxStreams];
+    auto level_of = [&](const std::vector<uint8_t>& stream) {
+        if (opt.large_stream_zstd_level <= 0 || stream.size() <= opt.large_stream_bytes) return opt.zstd_level;
+        return std::min(opt.zstd_level, opt.large_stream_zstd_level);
+    };
     tbb::parallel_for(0, nstreams, [&](int i) {
-        if (!s[i].empty()) frames[i] = tlod::zstd_compress(std::as_bytes(std::span(s[i])), opt.zstd_level);
+        if (!s[i].empty()) frames[i] = tlod::zstd_compress(std::as_bytes(std::span(s[i])), level_of(s[i]));
     });
     uint64_t raw_size = 0;
     std::vector<uint8_t> z;
@@ -282,8 +286,8 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
         raw_size += 8 + st.size();
         const std::vector<std::byte>& frame = frames[&st - s];
         if (stats)
-            std::fprintf(stderr, "mt encode: stream %zu: %zu bytes raw, %zu stored\n", size_t(&st - s), st.size(),
-                         frame.size());
+            std::fprintf(stderr, "mt encode: stream %zu: %zu bytes raw, %zu stored (zstd level %d)\n", size_t(&st - s),
+                         st.size(), frame.size(), st.empty() ? 0 : level_of(st));
         put_le(z, st.size(), 8);
         put_le(z, frame.size(), 8);
         const auto* fb = reinterpret_cast<const uint8_t*>(frame.data());

@@ -104,6 +104,41 @@ TEST(MtCodec, SameBytesForAnyThreadCount) {
     }
 }
 
+// Streams above large_stream_bytes are compressed at min(zstd_level,
+// large_stream_zstd_level); the others at zstd_level. Checked on the bytes: with
+// every stream "large" the container is the one of that level everywhere, with
+// none it is the one of zstd_level, and a threshold between the streams' sizes
+// gives a third container that still decodes to the same model.
+TEST(MtCodec, LargeStreamsTakeTheirOwnLevel) {
+    const Built b = build({17, 15, 13}, ValueType::U8, Field::Noisy);
+    auto encode = [&](int level, int large_level, size_t large_bytes) {
+        MtEncodeOptions o;
+        o.zstd_level = level;
+        o.large_stream_zstd_level = large_level;
+        o.large_stream_bytes = large_bytes;
+        return encode_mt(b.model, o);
+    };
+    const auto at19 = encode(19, 0, 0), at1 = encode(1, 0, 0);
+    ASSERT_FALSE(at19 == at1);
+    EXPECT_TRUE(encode(19, 1, 0) == at1) << "every stream large: level 1 everywhere";
+    EXPECT_TRUE(encode(19, 1, SIZE_MAX) == at19) << "no stream large: level 19 everywhere";
+    EXPECT_TRUE(encode(1, 19, 0) == at1) << "the large-stream level never raises the level";
+    EXPECT_TRUE(encode(19, 19, 0) == at19);
+    // The default: 12 above 1 MiB, which no stream of this small model reaches.
+    EXPECT_TRUE(encode_mt(b.model) == at19);
+    // A threshold between the streams' sizes (the near offsets and the label low
+    // bytes have one byte per update; the base tets 16 bytes per tet).
+    const size_t updates = b.model.updates().size();
+    const auto mixed = encode(19, 1, updates - 1);
+    EXPECT_FALSE(mixed == at19);
+    EXPECT_FALSE(mixed == at1);
+    auto dec = decode_mt(mixed, &b.vol);
+    ASSERT_TRUE(dec.ok()) << dec.failure().message;
+    MtEncodeOptions again;
+    again.large_stream_bytes = SIZE_MAX;
+    EXPECT_TRUE(encode_mt(dec.value(), again) == at19) << "the same model";
+}
+
 TEST(MtCodec, EveryPrefixFailsCleanly) {
     const Built b = build({5, 4, 6}, ValueType::U8, Field::Smooth);
     const auto bytes = encode_mt(b.model);
