@@ -64,11 +64,11 @@ void print_stats(const char* what, const mt::BrickResult::Stats& s) {
     std::fprintf(stderr,
                  "mt build: %s: %llu collapses (%llu reusing their evaluation), %llu evaluations (%.2f per "
                  "collapse, %llu + %llu skipped, %.1f%% cut at the link), %.1f star tets, %.1f targets ranked, %.2f tried, "
-                 "%.1f points gathered, %.1f located per evaluation\n",
+                 "%.1f points gathered, %.1f located per evaluation, %llu point walks on several threads\n",
                  what, (unsigned long long)s.commits, (unsigned long long)s.commits_reused,
                  (unsigned long long)s.evaluations, double(s.evaluations) / c, (unsigned long long)s.skipped, (unsigned long long)s.repeated, 100.0 * double(s.cut_at_link) / e,
                  double(s.star_tets) / e, double(s.ranked) / e, double(s.tried) / e, double(s.gathered) / e,
-                 double(s.located) / e);
+                 double(s.located) / e, (unsigned long long)s.parallel_walks);
 }
 
 /// Error cap of pass `pass` of `passes` (never the last, which has none): `top` of the
@@ -248,6 +248,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             r = mt::BrickResult{};
         };
         BrickAdmission admission(std::max(kBrickBudgetPerPoint * size_t(n), kBrickBudgetFloor));
+        // Fewer bricks than threads (the last pass): the bricks' evaluations use the rest.
+        const bool spare_threads = bricks < size_t(arena.max_concurrency());
         arena.execute([&] {
             tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
                 std::optional<BrickAdmission::Ticket> ticket;
@@ -261,7 +263,8 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                     within = [&](uint64_t collapses, uint64_t candidates) {
                         progress.brick_part(pass, boxes[b], double(collapses) / double(candidates), reported);
                     };
-                results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes, within);
+                results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes, within,
+                                                spare_threads);
                 --in_flight;
                 ticket.reset();
                 {

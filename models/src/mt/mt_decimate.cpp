@@ -11,6 +11,7 @@
 // Order: a heap of one live entry per vertex keyed by (cost, shape ratio, id),
 // re-evaluated lazily when its star changed (docs/mt.md §2, "Order"): deterministic.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +20,10 @@
 #include <numeric>
 #include <functional>
 #include <queue>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "mt_decimate.hpp"
 #include "tetlod/models/detail/mt_geometry.hpp"
@@ -108,6 +113,7 @@ struct BrickDecimator {
         std::array<float, 4> ferr{0, 0, 0, 0};               // closed error of the face opposite each corner
         float err = 0;                                       // closed error
         uint32_t head = kNil;                                // owned point list
+        uint32_t owned = 0;                                  // its length
         // Removed by a collapse (in the record's padding: a list of the removed tets
         // took up to 8 B per tet with its doubling, the brick's largest array after
         // the tets and their back links).
@@ -130,6 +136,12 @@ struct BrickDecimator {
     BrickResult& out;
     uint32_t seq_counter = 0;
     std::priority_queue<Entry> heap;
+    /// Evaluations walk their points on several threads (walk_points_in_parallel) when
+    /// they have at least kParallelPoints: set for a pass of fewer bricks than threads,
+    /// whose other threads would idle (the last pass: one brick).
+    bool parallel_points = false;
+    static constexpr size_t kParallelPoints = 128, kPointGrain = 64;
+    std::vector<double> point_dev;
 
     // Scratch.
     std::vector<uint32_t> star_w, pts, pfrom, nbrs, chain_at;
@@ -373,6 +385,7 @@ struct BrickDecimator {
                     }
                     *tail = kNil;
                     rec.head = head;
+                    rec.owned = t.points;
                     tets.push_back(rec);
                 }
             // The children's meshes now live in `tets`: free them before the brick's own
@@ -629,7 +642,61 @@ struct BrickDecimator {
         return -1;
     }
 
+    /// gather_points on the arena's threads (parallel_points), when the star owns at
+    /// least kParallelPoints: each star tet's chain goes to its place in `pts`, known from
+    /// the lengths (TetRec::owned), so the order is the sequential one. A thread walks its
+    /// tets' chains a step at a time, overlapping their cache misses as below.
+    bool gather_points_in_parallel(uint32_t w) {
+        chain_at.resize(star_w.size() + 1);
+        size_t total = 1;
+        for (size_t i = 0; i < star_w.size(); ++i) chain_at[i] = uint32_t(total), total += tets[star_w[i]].owned;
+        chain_at[star_w.size()] = uint32_t(total);
+        if (total < kParallelPoints) return false;
+        ++st.parallel_walks;
+        pts.resize(total), pfrom.resize(total);
+        pts[0] = w, pfrom[0] = kNil;
+        std::atomic<bool> lengths_ok{true};
+        tbb::parallel_for(
+            tbb::blocked_range<size_t>(0, star_w.size(), std::max<size_t>(1, star_w.size() / 8)),
+            [&](const tbb::blocked_range<size_t>& r) {
+                constexpr size_t kMaxChains = 64;
+                std::array<uint32_t, kMaxChains> at, slot, tet;  // per live chain: point, its place, star tet
+                for (size_t first = r.begin(); first < r.end(); first += kMaxChains) {
+                    const size_t last = std::min(r.end(), first + kMaxChains);
+                    size_t live = 0;
+                    for (size_t i = first; i < last; ++i) {
+                        const uint32_t head = tets[star_w[i]].head;
+                        if (head != kNil) at[live] = head, slot[live] = chain_at[i], tet[live++] = uint32_t(i);
+                        else if (chain_at[i] != chain_at[i + 1]) lengths_ok = false;
+                    }
+                    while (live > 0) {
+                        size_t still = 0;
+                        for (size_t k = 0; k < live; ++k) {
+                            const uint32_t p = at[k], at_slot = slot[k], i = tet[k];
+                            if (at_slot >= chain_at[i + 1]) {  // longer than its count: never written past
+                                lengths_ok = false;
+                                continue;
+                            }
+                            pts[at_slot] = p, pfrom[at_slot] = i;
+                            const uint32_t next = point[p].next;
+                            if (next != kNil) {
+                                __builtin_prefetch(&point[next]);
+                                at[still] = next, slot[still] = at_slot + 1, tet[still++] = i;
+                            } else if (at_slot + 1 != chain_at[i + 1]) {
+                                lengths_ok = false;
+                            }
+                        }
+                        live = still;
+                    }
+                }
+            },
+            tbb::simple_partitioner());
+        if (!lengths_ok) throw Error(ErrorCode::CorruptData, "mt build: internal error (point list length)");
+        return true;
+    }
+
     void gather_points(uint32_t w) {
+        if (parallel_points && gather_points_in_parallel(w)) return;
         // The owned point lists are chains of dependent loads, one cache miss per point
         // in the last passes. Walking all the star's chains a step at a time, only to
         // prefetch, overlaps the misses of different tets; the walk below, in the order
@@ -664,6 +731,46 @@ struct BrickDecimator {
         }
         bool exact = true;
         return deviation(sample(p), t, d, det, exact);
+    }
+
+    /// The walk of evaluate's target loop over the gathered points, on the arena's
+    /// threads: locate each point in the target's new tets and take its deviation;
+    /// the walk ends at the first point that no new tet holds (ok = false) or whose
+    /// deviation is over the limit (over = true, cost = the maximum up to it). Same
+    /// answer as the sequential loop: over_limit is monotone and the cost so far was
+    /// not over it, so the running maximum first passes the limit at the first point
+    /// whose own deviation does. Points after the end may be computed, never used
+    /// (located[] is read only when the walk got through every point).
+    template <class OverLimit>
+    void walk_points_in_parallel(const OverLimit& over_limit, double& cost, bool& ok, bool& over) {
+        ++st.parallel_walks;
+        for (size_t j = 0; j < ntv.size(); ++j) bary(j);  // every numerator now: the walk only reads
+        point_dev.resize(pts.size());
+        std::atomic<size_t> first_end{pts.size()};
+        tbb::parallel_for(
+            tbb::blocked_range<size_t>(0, pts.size(), kPointGrain),
+            [&](const tbb::blocked_range<size_t>& r) {
+                std::array<int64_t, 4> d;
+                for (size_t i = r.begin(); i < r.end(); ++i) {
+                    if (i > first_end.load(std::memory_order_relaxed)) return;
+                    const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
+                    const int j = locate(pts[i], guess, d);
+                    located[i] = j;
+                    point_dev[i] = j < 0 ? 0.0 : quick_deviation(pts[i], ntv[size_t(j)], d, nb[size_t(j)].det);
+                    if (j < 0 || over_limit(point_dev[i])) {
+                        for (size_t seen = first_end.load(); i < seen && !first_end.compare_exchange_weak(seen, i);) {
+                        }
+                        return;
+                    }
+                }
+            },
+            tbb::simple_partitioner());
+        const size_t end = first_end.load();
+        for (size_t i = 0; i < end; ++i) cost = std::max(cost, point_dev[i]);
+        st.located += end == pts.size() ? end : end + 1;
+        if (end == pts.size()) return;
+        if (located[end] < 0) ok = false;
+        else cost = std::max(cost, point_dev[end]), over = true;
     }
 
     /// Cutoff: targets whose cost exceeds it are abandoned early; if all are, the
@@ -776,7 +883,9 @@ struct BrickDecimator {
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
                 located.resize(pts.size());
-                for (size_t i = 0; i < pts.size(); ++i) {
+                if (parallel_points && pts.size() >= kParallelPoints) {
+                    walk_points_in_parallel(over_limit, cost, ok, over);
+                } else for (size_t i = 0; i < pts.size(); ++i) {
                     const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
                     const int j = locate(pts[i], guess, d);
                     located[i] = j;
@@ -890,6 +999,7 @@ struct BrickDecimator {
             for (int j = 0; j < 4; ++j)
                 if (tets[t].v[j] != w) unlink_corner(tets[t].v[j], 4 * t + j);
             tets[t].head = kNil;
+            tets[t].owned = 0;
             tets[t].dead = true;
         }
         newid.assign(ntv.size(), 0);
@@ -900,6 +1010,7 @@ struct BrickDecimator {
             tets[t].v[sw] = s;
             link_corner(s, 4 * t + sw);
             tets[t].head = kNil;
+            tets[t].owned = 0;
             newid[old2new[i]] = t;
         }
         vhead[w] = kNil;
@@ -923,6 +1034,7 @@ struct BrickDecimator {
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
             point[p].next = tets[newid[j]].head;
             tets[newid[j]].head = p;
+            ++tets[newid[j]].owned;
             const Sample x = sample(p);
             account(x, j, d);
             if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
@@ -1128,9 +1240,11 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
 }
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
-                           const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress) {
+                           const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress,
+                           bool parallel_points) {
     BrickResult r;
     BrickDecimator d(vol, opt, box, input, nodes, r);
+    d.parallel_points = parallel_points;
     d.run(progress);
     r.mask_bit_count = d.mask_bit_count;
     return r;

@@ -60,10 +60,11 @@ struct BrickResult {
         uint64_t located = 0;         // points located in a target's new tets
         uint64_t commits = 0;
         uint64_t commits_reused = 0;  // commits that reused their evaluation's located points
+        uint64_t parallel_walks = 0;  // gathers and target walks of points run on several threads
         void add(const Stats& o) {
             evaluations += o.evaluations, skipped += o.skipped, repeated += o.repeated, cut_at_link += o.cut_at_link, star_tets += o.star_tets;
             ranked += o.ranked, tried += o.tried, gathered += o.gathered, located += o.located;
-            commits += o.commits, commits_reused += o.commits_reused;
+            commits += o.commits, commits_reused += o.commits_reused, parallel_walks += o.parallel_walks;
         }
     } stats;
 };
@@ -81,9 +82,10 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
 /// Decimates the brick. `input`: the tets of the brick (the previous pass's tets that
 /// lie in its box, in a fixed order), emptied once read; empty: start from the
 /// reference mesh of the box. Deterministic: the result depends only on the arguments
-/// (not on `progress`, which may be empty).
+/// (not on `progress`, which may be empty, nor on `parallel_points`: evaluations of
+/// many points then walk them on the calling arena's threads, for the same answers).
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
                            const std::vector<BrickMesh*>& input, NodeState& nodes,
-                           const BrickProgress& progress = {});
+                           const BrickProgress& progress = {}, bool parallel_points = false);
 
 }  // namespace tetlod::mt

@@ -1,0 +1,65 @@
+// The last pass's evaluations walk their points on the arena's spare threads
+// (decimate_brick's parallel_points): the brick's result must be the sequential one,
+// byte for byte, and the parallel walks must actually have run.
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include <tbb/task_arena.h>
+
+#include "mt_decimate.hpp"
+#include "mt_test_util.hpp"
+
+namespace tetlod::test {
+namespace {
+
+struct BrickRun {
+    mt::BrickResult result;
+    mt::NodeState nodes;
+};
+
+BrickRun decimate_whole_volume(const Volume& v, bool parallel_points) {
+    BrickRun run;
+    const uint32_t n = uint32_t(v.count());
+    run.nodes.node.resize(n);
+    std::iota(run.nodes.node.begin(), run.nodes.node.end(), 0u);
+    run.nodes.label.assign(n, 0);
+    run.nodes.err.assign(n, 0.0f);
+    mt::BrickBox box;
+    box.hi = {v.dims.x - 1, v.dims.y - 1, v.dims.z - 1};
+    const MtBuildOptions options;
+    tbb::task_arena arena(2);
+    arena.execute([&] { run.result = mt::decimate_brick(v, options, box, {}, run.nodes, {}, parallel_points); });
+    return run;
+}
+
+TEST(MtParallelWalks, SameBrickAsTheSequentialWalk) {
+    for (auto [d, t, f] : {std::tuple{Dims{25, 23, 21}, ValueType::U8, Field::Smooth},
+                           std::tuple{Dims{17, 19, 16}, ValueType::F32, Field::Noisy},
+                           std::tuple{Dims{21, 18, 20}, ValueType::I16, Field::Plateau}}) {
+        SCOPED_TRACE(dims_str(d));
+        const Volume v = make_volume(d, t, f, 3);
+        const BrickRun seq = decimate_whole_volume(v, false), par = decimate_whole_volume(v, true);
+        EXPECT_EQ(seq.result.stats.parallel_walks, 0u);
+        EXPECT_GT(par.result.stats.parallel_walks, 0u) << "no evaluation was large enough to walk in parallel";
+        ASSERT_EQ(seq.result.updates.size(), par.result.updates.size());
+        for (size_t k = 0; k < seq.result.updates.size(); ++k) {
+            const MtUpdate &a = seq.result.updates[k], &b = par.result.updates[k];
+            ASSERT_TRUE(a.w == b.w && a.s == b.s && a.label == b.label && a.error == b.error && a.star == b.star)
+                << "update " << k;
+        }
+        EXPECT_EQ(seq.result.mask_bit_count, par.result.mask_bit_count);
+        EXPECT_TRUE(seq.result.mask_bits == par.result.mask_bits);
+        EXPECT_TRUE(seq.result.mesh.bytes == par.result.mesh.bytes);
+        EXPECT_TRUE(seq.nodes.node == par.nodes.node);
+        EXPECT_TRUE(seq.nodes.label == par.nodes.label);
+        EXPECT_TRUE(seq.nodes.err == par.nodes.err);
+        // The walks are the same work: the statistics other than the walks agree too.
+        EXPECT_EQ(seq.result.stats.evaluations, par.result.stats.evaluations);
+        EXPECT_EQ(seq.result.stats.located, par.result.stats.located);
+        EXPECT_EQ(seq.result.stats.gathered, par.result.stats.gathered);
+    }
+}
+
+}  // namespace
+}  // namespace tetlod::test
