@@ -3,6 +3,7 @@
 // --error inside and --error-out elsewhere) or the full-resolution reference.
 #include <CLI/CLI.hpp>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <optional>
 #include <ostream>
@@ -70,6 +71,20 @@ ContainerExtractOptions extract_options(const ExtractArgs& a) {
     return o;
 }
 
+/// A lossy container's finest mesh honours its field.max_error E, no less: a
+/// threshold below E gets that mesh (spec §5.1), which the user should know.
+void warn_if_below_field_error(const std::string& input, const ContainerExtract& x) {
+    const double E = x.field_max_error;
+    if (!(E > 0) || verbosity() < 0) return;
+    if (x.query.full) return;  // asked for the finest mesh, not for a bound
+    const bool inside = x.query.error_in < E;
+    const bool outside = x.query.has_region() && x.query.error_out < E;
+    if (!inside && !outside) return;
+    std::cerr << "tetlod: warning: '" << input << "' is lossy (every sample within " << format_max_error(E)
+              << " of the original): no mesh honours an error below that; the finest mesh was written where --error"
+              << (outside && !inside ? "-out" : "") << " asks for less\n";
+}
+
 // A container: the HT read lazily (only the chunks the query examines), or its MT.
 int run_extract_container(const ExtractArgs& a, ModelKind model) {
     const auto error_in = a.lod.error_in();
@@ -104,7 +119,9 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
         o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, lazy)\n";
         o << "mesh     " << x.tet_count << " tets, " << x.vertex_count
-          << " vertices, largest error " << format_error(x.max_error, x.range) << "\n";
+          << " vertices, largest error " << format_error(x.max_error, x.range)
+          << (x.field_max_error > 0 ? " against the original (lossy field)" : "") << "\n";
+        warn_if_below_field_error(a.input, x);
         o << "read     " << format_bytes(x.bytes_read) << " of " << format_bytes(x.file_size) << ", "
           << x.chunks_decoded << " of " << x.chunks_total << " chunks";
         if (x.chunk_decodes > x.chunks_decoded) o << " (" << x.chunk_decodes << " decodings: raise --cache-mb)";

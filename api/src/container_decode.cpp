@@ -44,7 +44,7 @@ Expected<StoredModel> stored_ht(tlod::ContainerReader& r) {
     auto original = capture([&] { return crop_volume(d->field, d->layout.metadata.dims); });
     if (!original) return original.failure();
     auto ht = std::make_shared<const HtModel>(
-        HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors)));
+        HtModel::from_parts(std::move(d->field), d->layout.domain, std::move(d->errors), d->layout.max_error));
     StoredModel s{make_lod_model(ht), std::move(*original)};
     s.model.stored_what = ".tlod file";
     return s;

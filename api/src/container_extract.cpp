@@ -82,6 +82,7 @@ Expected<ContainerExtract> extract(const std::string& path, ModelKind model, Lod
     }
     x.seconds = clock.seconds();
     x.max_error = stats.max_error;
+    x.field_max_error = layout->max_error;
     x.refine_seconds = stats.refine_seconds;
     x.emit_seconds = stats.emit_seconds;
     x.bytes_read = lazy.bytes_read;

@@ -159,6 +159,8 @@ void bind_models(py::module_& m) {
             out.attr("model") = model_kind_name(x.model);
             out.attr("range") = py::make_tuple(x.range[0], x.range[1]);
             out.attr("max_error") = x.max_error;
+            // A lossy container's E: no tet's bound (max_error included) is below it.
+            out.attr("field_max_error") = x.field_max_error;
             out.attr("bytes_read") = x.bytes_read;
             return out;
         },

@@ -165,3 +165,20 @@ def test_convert_takes_a_zstd_level_or_none(volume, work):
     assert explicit["bytes"] == default["bytes"]  # no stream of this volume is above 1 MiB
     with pytest.raises(tetlod.Error):
         tetlod.convert(volume[0], str(work / "level_23.tlod"), zstd_level=23)
+
+
+def test_lossy_container_states_its_bound_on_every_tet(volume, cli, work):
+    # A lossy container (every sample within E = 3 of the original): no tet's
+    # bound is below E, the finest (unit) tets included.
+    path = str(work / "lossy.tlod")
+    cli("convert", volume[0], path, "--max-error", "3")
+    finest = tetlod.extract(path, error=0)
+    assert finest.field_max_error == 3.0
+    assert float(finest.error.min()) >= 3.0
+    assert finest.max_error >= 3.0
+    # Below E nothing is coarse enough: the finest mesh, as full=True gives it.
+    assert finest.tet_count == tetlod.extract(path, full=True).tet_count
+
+
+def test_lossless_container_has_no_field_error(container):
+    assert tetlod.extract(container, error=0).field_max_error == 0.0

@@ -14,6 +14,7 @@
 
 #include "support/mesh_checker.hpp"
 #include "support/volume_generators.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tetlod/tetlod.hpp"
@@ -248,7 +249,12 @@ TEST(Lossy, ExtractHonoursTheBoundAgainstTheOriginal) {
                     q.box = std::array<int64_t, 6>{3, 2, 1, 10, 8, 5};
                     q.error_out = std::numeric_limits<double>::infinity();
                 }
-                const TetMesh m = extract_from_container(path, ModelKind::Ht, q).take().mesh;
+                const ContainerExtract x = extract_from_container(path, ModelKind::Ht, q).take();
+                const TetMesh& m = x.mesh;
+                EXPECT_EQ(x.field_max_error, inspect_container(path).take().max_error);
+                // What the container says each tet honours, loaded lazily and in memory.
+                const TetMesh in_memory = load_ht_model(path).extract(q);
+                ASSERT_EQ(in_memory.error, m.error);
                 // Structure against the stored field (the mesh's vertex values are its samples).
                 test::CheckOptions co;
                 co.tolerance = test::float_tolerance(stored);
@@ -262,6 +268,14 @@ TEST(Lossy, ExtractHonoursTheBoundAgainstTheOriginal) {
                     bad += !(tet_error_vs_original(v, m, t) <= std::max(e, E) + tol);
                 }
                 EXPECT_EQ(bad, 0);
+                // Every tet's stated error is a bound against the original, the finest
+                // (unit) tets' too: never below E, though their grid points are vertices.
+                int64_t understated = 0;
+                for (std::size_t t = 0; t < m.tet_count(); ++t)
+                    understated += !(tet_error_vs_original(v, m, t) <= double(m.error[t]) + tol) ||
+                                   !(double(m.error[t]) >= x.field_max_error);
+                EXPECT_EQ(understated, 0);
+                EXPECT_GE(x.max_error, x.field_max_error);
             }
     }
 }

@@ -414,7 +414,7 @@ TEST(LazyExtract, SameMeshAsFullDecode) {
     auto rf = ContainerReader::from_memory(file);
     auto full = decode_ht(*rf);
     ASSERT_TRUE(full.ok());
-    HtModel ref = HtModel::from_parts(full->field, full->layout.domain, full->errors);
+    HtModel ref = HtModel::from_parts(full->field, full->layout.domain, full->errors, full->layout.max_error);
     const double range = ref.value_range()[1] - ref.value_range()[0];
     std::vector<LodQuery> qs(5);
     qs[0].error_in = 0.2 * range;

@@ -60,7 +60,7 @@ void check_container(const std::vector<std::byte>& file, const std::string& name
     auto rf = ContainerReader::from_memory(file);
     auto full = decode_ht(*rf);
     ASSERT_TRUE(full.ok()) << name << ": " << full.failure().message;
-    HtModel ref = HtModel::from_parts(full->field, full->layout.domain, full->errors);
+    HtModel ref = HtModel::from_parts(full->field, full->layout.domain, full->errors, full->layout.max_error);
     const auto qs = queries_for(ref);
     for (std::size_t q = 0; q < qs.size(); ++q) {
         const TetMesh want = ref.extract(qs[q]);

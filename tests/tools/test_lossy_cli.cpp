@@ -108,8 +108,25 @@ TEST(LossyCli, AbsoluteBoundDecodeAndVerify) {
     EXPECT_TRUE(contains(w.err, "farther than 3")) << w.err;
 
     // extract --error e honours e (here: reports a largest error no larger).
-    const CliRun x = run("extract '" + path + "' '" + tmp("lossy.vtu") + "' --error 10");
+    const CliRun x = run("extract '" + path + "' '" + tmp("lossy.vtu") + "' --error 10 -f");
     EXPECT_EQ(x.code, 0) << x.err;
+    EXPECT_TRUE(contains(x.out, "against the original (lossy field)")) << x.out;
+    EXPECT_FALSE(contains(x.err, "warning")) << x.err;
+    // Below E no mesh honours the threshold: the finest one is written, its
+    // largest error stated as E (not 0), with a warning (not under -q).
+    for (const std::string& ask : {std::string("--error 1"), std::string("--error 0"),
+                                   std::string("--error 10 --box 0,0,0,4,4,4 --error-out 2")}) {
+        const CliRun below = run("extract '" + path + "' '" + tmp("lossy.vtu") + "' -f " + ask);
+        EXPECT_EQ(below.code, 0) << ask << below.err;
+        EXPECT_TRUE(contains(below.err, "is lossy (every sample within 3 of the original)")) << ask << below.err;
+        if (ask.find("--box") == std::string::npos)
+            EXPECT_TRUE(contains(below.out, "largest error 3 ")) << ask << below.out;
+        EXPECT_FALSE(contains(run("-q extract '" + path + "' '" + tmp("lossy.vtu") + "' -f " + ask).err, "warning"));
+    }
+    const CliRun full = run("extract '" + path + "' '" + tmp("lossy.vtu") + "' -f --full");
+    EXPECT_EQ(full.code, 0) << full.err;
+    EXPECT_FALSE(contains(full.err, "warning")) << full.err;  // --full asks for no bound
+    EXPECT_TRUE(contains(full.out, "largest error 3 ")) << full.out;
 }
 
 TEST(LossyCli, ZeroIsLosslessAndBadBoundsRefused) {

@@ -247,6 +247,10 @@ struct ContainerExtract {
     double emit_seconds = 0;   // HT: the tets, handed over (written, when streamed)
     // HT (lazy): the largest error of the mesh, what was read.
     double max_error = 0;
+    /// A lossy container's field.max_error E (0: lossless). Every bound above
+    /// holds against the original; none is below E (the finest mesh honours E),
+    /// so a threshold under E gives the finest mesh and is not met.
+    double field_max_error = 0;
     uint64_t bytes_read = 0, file_size = 0;
     uint64_t chunks_decoded = 0, chunks_total = 0, passes = 0;
     uint64_t chunk_decodes = 0;      // decodings (a chunk evicted and needed again counts again)

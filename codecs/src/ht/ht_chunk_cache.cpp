@@ -2,7 +2,9 @@
 #include "ht_chunk_cache.hpp"
 
 #include <bit>
+#include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "ht_chunk_decoder.hpp"
 
@@ -306,6 +308,14 @@ const DecodedChunk& CachedSampleSource::at(const Point& p) {
 float CachedSampleSource::error(const Point& p) {
     const DecodedChunk& c = at(p);
     return c.errors[std::size_t(c.window.index(p[0], p[1], p[2]))];
+}
+
+float CachedSampleSource::field_error_bound() {
+    // E rounded up to float, as HtModel::from_parts states it for a decoded model.
+    const double e = cache_.layout().max_error;
+    float f = static_cast<float>(e);
+    if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    return f;
 }
 
 double CachedSampleSource::value(const Point& p) {

@@ -133,6 +133,8 @@ public:
     explicit CachedSampleSource(HtChunkCache& cache);
     float error(const Point& p) override;
     double value(const Point& p) override;
+    /// The layout's E (spec §5.1) rounded up to float: what a lossy reader adds to every stored bound.
+    float field_error_bound() override;
     std::unique_ptr<HtSampleSource> fork() override;
     /// Queues the chunks holding `points` for background decoding.
     void prefetch(const Point* points, int count) override;

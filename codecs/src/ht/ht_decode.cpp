@@ -64,7 +64,7 @@ Expected<Volume> decode_volume(tlod::ContainerReader& r, const std::function<voi
 HtModel load_ht_model(const std::string& path) {
     auto r = tlod::ContainerReader::open(path).take();
     HtDecoded d = decode_ht(r).take();
-    return HtModel::from_parts(std::move(d.field), d.layout.domain, std::move(d.errors));
+    return HtModel::from_parts(std::move(d.field), d.layout.domain, std::move(d.errors), d.layout.max_error);
 }
 
 bool is_tlod_file(const std::string& path) {

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstring>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "ht_error_build.hpp"
@@ -87,16 +88,18 @@ HtModel HtModel::build(Volume volume, const HtBuildOptions& options) {
     return m;
 }
 
-HtModel HtModel::from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors) {
+HtModel HtModel::from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors, double field_error) {
     const std::array<double, 2> r = field.range();
     return over_shared_parts(std::make_shared<const Volume>(std::move(field)), domain,
-                             std::make_shared<const ZeroedVector<float>>(std::move(errors)), r);
+                             std::make_shared<const ZeroedVector<float>>(std::move(errors)), r, field_error);
 }
 
 HtModel HtModel::over_shared_parts(std::shared_ptr<const Volume> field, const HtDomain& domain,
                                    std::shared_ptr<const ZeroedVector<float>> errors,
-                                   std::array<double, 2> range) {
+                                   std::array<double, 2> range, double field_error) {
     if (!field || !errors) throw Error(ErrorCode::InvalidArgument, "HT model: missing field or errors");
+    if (!(field_error >= 0) || !std::isfinite(field_error))
+        throw Error(ErrorCode::InvalidArgument, "HT model: the field's error bound must be finite and >= 0");
     if (!(field->dims == domain.dims()))
         throw Error(ErrorCode::CorruptData, "HT field dims do not match the HT domain");
     if (errors->size() != static_cast<std::size_t>(field->count()))
@@ -109,6 +112,10 @@ HtModel HtModel::over_shared_parts(std::shared_ptr<const Volume> field, const Ht
     m.field_ = std::move(field);
     m.errors_ = std::move(errors);
     m.range_ = range;
+    // Rounded up, as a lossy reader rounds every stored bound + E (spec §5.1).
+    float e = static_cast<float>(field_error);
+    if (static_cast<double>(e) < field_error) e = std::nextafter(e, std::numeric_limits<float>::infinity());
+    m.field_error_bound_ = e;
     return m;
 }
 

@@ -79,8 +79,9 @@ class ArrayAccess {
 public:
     explicit ArrayAccess(const HtModel& m)
         : err_(m.diamond_errors().data()), field_(&m.field()), X_(m.field().dims.x),
-          XY_(m.field().dims.x * m.field().dims.y) {}
+          XY_(m.field().dims.x * m.field().dims.y), unit_error_(m.field_error_bound()) {}
     float error(const Pt& p) const { return err_[index(p)]; }
+    float unit_error() const { return unit_error_; }
     void prefetch_error(const Pt& p) const { __builtin_prefetch(&err_[index(p)]); }
     double value(const Pt& p) const { return field_->value(index(p)); }
     const ArrayAccess& fork() const { return *this; }
@@ -100,6 +101,7 @@ private:
     const float* err_;
     const Volume* field_;
     int64_t X_, XY_;
+    float unit_error_;
 };
 
 /// A sample source; fork() gives each emit task its own.
@@ -108,6 +110,7 @@ public:
     explicit SourceAccess(HtSampleSource& s) : s_(&s) {}
     explicit SourceAccess(std::unique_ptr<HtSampleSource> owned) : s_(owned.get()), owned_(std::move(owned)) {}
     float error(const Pt& p) const { return s_->error(p); }
+    float unit_error() const { return s_->field_error_bound(); }
     void prefetch_error(const Pt&) const {}
     double value(const Pt& p) const { return s_->value(p); }
     SourceAccess fork() const { return SourceAccess(s_->fork()); }
@@ -738,7 +741,9 @@ private:
                 return;
             }
         } else if (!refine) {
-            output(t, ids, positive, 0.0f, out);  // unit tets: no error
+            // Unit tets: their grid points are their vertices, so no error but the
+            // field's own against the original (a lossy container's E, else 0).
+            output(t, ids, positive, acc.unit_error(), out);
             return;
         }
         ht::MTet c1, c2;

@@ -75,13 +75,18 @@ public:
     /// Reassembles a model from stored parts (container decoders). `errors` has
     /// one entry per grid point of domain.dims(); entries at points that are not
     /// diamond centres are ignored. Throws tetlod::Error on inconsistent sizes.
-    static HtModel from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors);
+    /// `field_error`: how far the stored field may be from the original at any
+    /// grid point (a lossy container's E; 0: the field is the original). The
+    /// errors must already include it (stored bound + E), and it becomes the
+    /// bound of the finest tets (field_error_bound).
+    static HtModel from_parts(Volume field, const HtDomain& domain, ZeroedVector<float> errors,
+                              double field_error = 0);
     /// A model over storage it shares with its maker, without copying it: the
     /// lazy container reader decodes further chunks into that storage between
     /// queries (never during one). Same checks as from_parts; `range` is given.
     static HtModel over_shared_parts(std::shared_ptr<const Volume> field, const HtDomain& domain,
                                      std::shared_ptr<const ZeroedVector<float>> errors,
-                                     std::array<double, 2> range);
+                                     std::array<double, 2> range, double field_error = 0);
 
     const HtDomain& domain() const { return domain_; }
     /// The field on B (padded when domain().padded).
@@ -99,6 +104,12 @@ public:
     /// memory holds the split set and one batch of tets, never the whole mesh.
     void extract_to(const LodQuery& query, TetMeshSink& sink, HtExtractStats* stats = nullptr) const;
 
+    /// The bound against the original of a tet with no diamond error: a unit
+    /// tet, whose grid points are its vertices. 0 unless the field is lossy
+    /// (a lossy container's E, rounded up to float), so that every output tet's
+    /// `error` holds against the original data, the finest ones included.
+    float field_error_bound() const { return field_error_bound_; }
+
     /// The value range [min, max] of the field (for percent thresholds).
     std::array<double, 2> value_range() const { return range_; }
 
@@ -108,6 +119,7 @@ private:
     std::shared_ptr<const Volume> field_;
     std::shared_ptr<const ZeroedVector<float>> errors_;
     std::array<double, 2> range_{0, 0};
+    float field_error_bound_ = 0;
 };
 
 }  // namespace tetlod

@@ -26,6 +26,9 @@ public:
     virtual float error(const Point& p) = 0;
     /// Field value at p (p in B).
     virtual double value(const Point& p) = 0;
+    /// HtModel::field_error_bound of the data: the bound of a unit tet against
+    /// the original (a lossy container's E rounded up to float; 0: lossless).
+    virtual float field_error_bound() { return 0.0f; }
     /// A source for another thread, reading the same data. Both phases of the
     /// refinement run in parallel and use one per thread or task (this one
     /// only for the root tets); a source is used by one thread at a time.
