@@ -63,9 +63,10 @@ int run_convert(const ConvertArgs& a) {
         if (!(max_error->value >= 0) || !std::isfinite(max_error->value))
             throw Error(ErrorCode::InvalidArgument,
                         "--max-error '" + a.max_error + "': expected a finite bound >= 0 (0: lossless)");
-        if (max_error->value > 0 && with_mt)
+        if (max_error->value > 0 && with_mt && !with_ht)
             throw Error(ErrorCode::InvalidArgument,
-                        "--max-error applies to the HT alone (--model ht): a lossy container holds no MT");
+                        "--max-error: a lossy field is stored in the HT; use --model ht or ht,mt "
+                        "(an MT alone stores its field losslessly)");
     }
     const std::size_t memory = a.memory.empty() ? default_memory_budget() : parse_byte_size(a.memory, "--memory");
     auto add_meta = [&](std::map<std::string, std::string>& md) {

@@ -113,8 +113,10 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
         o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, MT: " << x.mt_updates << " vertex splits, field "
           << (x.mt_field_from_ht ? "from the HT" : "in the MT") << ")\n";
-        o << "mesh     " << x.tet_count << " tets, " << x.vertex_count << " vertices, "
-          << format_seconds(x.seconds) << "\n";
+        o << "mesh     " << x.tet_count << " tets, " << x.vertex_count << " vertices, largest error "
+          << format_error(x.max_error, x.range) << (x.field_max_error > 0 ? " against the original (lossy field)" : "")
+          << ", " << format_seconds(x.seconds) << "\n";
+        warn_if_below_field_error(a.input, x);
     } else {
         o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, lazy)\n";

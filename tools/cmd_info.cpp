@@ -152,7 +152,10 @@ int run_info(const InfoArgs& a) {
     }
     if (mlay)
         o << "  model     MT, " << mlay->updates << " vertex splits on " << mlay->base_tets
-          << " base tets, errors rounded up to " << mlay->error_mantissa_bits << " mantissa bits, field "
+          << " base tets, errors rounded up to " << mlay->error_mantissa_bits << " mantissa bits"
+          << (info.max_error > 0 ? " (against the original: they include the field's " + format_max_error(info.max_error) + ")"
+                                 : std::string())
+          << ", field "
           << (mlay->field_from_ht ? "shared with the HT" : "in the MT payload") << "; MT_HEADER "
           << mlay->header_bytes << " B, MT_STRUCTURE " << mlay->structure_bytes << " B\n";
     for (const auto& [k, v] : md.format_keys)

@@ -26,6 +26,12 @@ ContainerExtract described(ModelKind model, const tlod::Metadata& meta, LodQuery
     return x;
 }
 
+/// A lossy file's E (0: lossless): the HT layout's, which checked it (spec §5.1).
+double field_max_error(tlod::ContainerReader& r) {
+    auto ht = read_ht_layout(r);
+    return ht ? ht->max_error : 0.0;
+}
+
 Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerReader& r, LodQuery query,
                                       const ThresholdResolver& resolve, const Stopwatch& clock, TetMeshSink* sink) {
     if (!container_has_mt(r))
@@ -36,7 +42,8 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
     auto model = decode_mt_container(r);
     if (!model) return model.failure();
     ContainerExtract x = described(ModelKind::Mt, layout->metadata, query, resolve);
-    auto mesh = capture([&] { return model->extract(query); });  // CorruptData on an inconsistent MT
+    MtExtractStats stats;
+    auto mesh = capture([&] { return model->extract(query, &stats); });  // CorruptData on an inconsistent MT
     if (!mesh) return mesh.failure();
     x.tet_count = mesh->tets.size();
     x.vertex_count = mesh->points.size();
@@ -49,6 +56,8 @@ Expected<ContainerExtract> extract_mt(const std::string& path, tlod::ContainerRe
     x.seconds = clock.seconds();
     x.mt_updates = model->updates().size();
     x.mt_field_from_ht = layout->with_ht;
+    x.max_error = stats.max_error;
+    x.field_max_error = layout->with_ht ? field_max_error(r) : 0.0;
     return x;
 }
 

@@ -225,11 +225,18 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
                         std::snprintf(b, sizeof b, "%llx", static_cast<unsigned long long>(unknown));
                         return std::string(b);
                     }() + "); a newer reader is needed");
-    // Spec §4.1: the lossy field of 3.1 belongs to an HT alone (its MT would
-    // state errors against the stored field, not the original).
-    if ((h.required_features & kFeatureLossy) &&
-        (!(h.required_features & kFeatureHt) || ((h.required_features | h.optional_features) & kFeatureMt)))
-        return fail(ErrorCode::CorruptData, where + "the LOSSY feature needs an HT and no MT");
+    // Spec §4.1: the lossy field of 3.1 belongs to an HT; an MT beside it (3.5)
+    // states its errors against the original, which LOSSY_MT says.
+    {
+        const bool lossy = (h.required_features & kFeatureLossy) != 0;
+        const bool mt = ((h.required_features | h.optional_features) & kFeatureMt) != 0;
+        const bool lossy_mt = (h.required_features & kFeatureLossyMt) != 0;
+        if (lossy && !(h.required_features & kFeatureHt))
+            return fail(ErrorCode::CorruptData, where + "the LOSSY feature needs an HT");
+        if (lossy_mt != (lossy && mt))
+            return fail(ErrorCode::CorruptData,
+                        where + "the LOSSY_MT feature must be set exactly when LOSSY and the MT are");
+    }
     if (size < h.file_size)
         return fail(ErrorCode::Truncated, where + "truncated: " + std::to_string(size) +
                                               " bytes, the header declares " +
@@ -437,7 +444,8 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     const bool modes_3_3 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
         return section_mode(s.flags) >= kFirstChunkModeOf3_3;
     });
-    const uint16_t minor = modes_3_3                                ? kVersion3_3_Minor
+    const uint16_t minor = (required & kFeatureLossyMt)             ? kVersion3_5_Minor
+                           : modes_3_3                              ? kVersion3_3_Minor
                            : compact                                ? kVersion3_2_Minor
                            : (required & kFeatureLossy)             ? kVersion3_1_Minor
                                                                     : kVersion3_0_Minor;

@@ -59,8 +59,13 @@ py::dict info_dict(const ContainerInfo& info) {
 }
 
 py::dict convert(const std::string& input, const std::string& output, bool ht, bool mt, bool pad,
-                 std::optional<int> zstd_level, py::kwargs kwargs) {
+                 std::optional<int> zstd_level, const py::object& max_error, py::kwargs kwargs) {
     const VolumeReadOptions read = read_options(kwargs);
+    // Lossy archival (format 3.1, 3.5 with the MT): a number in field units or
+    // '1%' of the value range, as the CLI's --max-error; None or 0: lossless.
+    const Threshold lossy = threshold(max_error, 0.0);
+    if (!(lossy.value >= 0) || !std::isfinite(lossy.value))
+        throw Error(ErrorCode::InvalidArgument, "max_error: expected a finite bound >= 0 (0 or None: lossless)");
     ContainerWriteOptions options;
     options.ht = ht;
     options.mt = mt;
@@ -74,12 +79,14 @@ py::dict convert(const std::string& input, const std::string& output, bool ht, b
     {
         py::gil_scoped_release release;
         Volume volume = read_volume_file(input, read).take();
+        options.max_error = lossy.resolve(volume.range());
         summary = write_container(std::move(volume), output, options);
     }
     py::dict d;
     d["path"] = output;
     d["bytes"] = summary.bytes;
     d["seconds"] = summary.seconds;
+    d["max_error"] = summary.max_error;  // the bound stated (0: the lossless file was written)
     if (summary.ht_k >= 0) {
         d["ht_k"] = summary.ht_k;
         d["ht_max_level"] = summary.ht_max_level;
@@ -120,8 +127,12 @@ void bind_containers(py::module_& m) {
           "True when path names a .tlod container (by its first bytes, or its extension).");
     m.def("convert", &convert, py::arg("input"), py::arg("output"), py::arg("ht") = true,
           py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = py::none(),
-          "Converts a volume file into a .tlod container holding the HT and/or the MT "
-          "(lossless field). Volume keywords as for read_volume. Returns a summary dict.");
+          py::arg("max_error") = py::none(),
+          "Converts a volume file into a .tlod container holding the HT and/or the MT. "
+          "max_error: None (lossless), a bound in field units or '1%' of the value range: every "
+          "stored sample within it of the original, every error bound stated against the "
+          "original (the HT, or the HT and the MT; not the MT alone). Volume keywords as for "
+          "read_volume. Returns a summary dict (max_error: the bound stated, 0 when lossless).");
     m.def(
         "decode",
         [](const std::string& path) {

@@ -182,3 +182,25 @@ def test_lossy_container_states_its_bound_on_every_tet(volume, cli, work):
 
 def test_lossless_container_has_no_field_error(container):
     assert tetlod.extract(container, error=0).field_max_error == 0.0
+
+
+def test_convert_lossy_with_both_models(volume, work):
+    # max_error: a bound in field units or a percentage of the range; the MT
+    # beside a lossy HT states its bounds against the original too (format 3.5).
+    path = str(work / "lossy_both.tlod")
+    summary = tetlod.convert(volume[0], path, mt=True, max_error="2%")
+    assert summary["max_error"] == 5.0  # 2% of 0..255, an integer field states floor(5.1)
+    assert tetlod.info(path)["format_version"] == "3.5"
+    for model in ("ht", "mt"):
+        mesh = tetlod.extract(path, model=model, error="5%")
+        assert mesh.field_max_error == 5.0
+        assert float(mesh.error.min()) >= 0.0
+        assert mesh.max_error <= 0.05 * 255 + 1e-6
+        finest = tetlod.extract(path, model=model, error=0)
+        assert float(finest.error.min()) >= 5.0
+    assert tetlod.convert(volume[0], str(work / "lossless.tlod"), max_error=None)["max_error"] == 0.0
+    for bad in (-1, "inf", "x%"):
+        with pytest.raises(tetlod.Error):
+            tetlod.convert(volume[0], str(work / "bad.tlod"), max_error=bad)
+    with pytest.raises(tetlod.Error, match="MT alone"):
+        tetlod.convert(volume[0], str(work / "bad.tlod"), ht=False, mt=True, max_error=3)

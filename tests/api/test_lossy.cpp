@@ -15,6 +15,7 @@
 #include "support/mesh_checker.hpp"
 #include "support/volume_generators.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
+#include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tetlod/tetlod.hpp"
@@ -198,10 +199,11 @@ TEST(Lossy, BoundAgainstOriginalRoundsUp) {
     EXPECT_TRUE(std::isinf(bound_against_original(std::numeric_limits<float>::infinity(), 1.0)));
 }
 
-TEST(Lossy, MtRefused) {
+TEST(Lossy, MtAloneRefused) {
     const Volume v = test::make_volume({6, 5, 4}, ValueType::U8, test::Field::Smooth);
     ContainerWriteOptions o = lossy(2);
     o.mt = true;
+    o.ht = false;  // a lossy field lives in the HT
     EXPECT_THROW(write_container(Volume(v), tmp("mt.tlod"), o), Error);
 }
 
@@ -280,6 +282,80 @@ TEST(Lossy, ExtractHonoursTheBoundAgainstTheOriginal) {
     }
 }
 
+/// The MT beside a lossy HT (format 3.5): built on the stored field, its update
+/// errors stored with E added, so every MT query honours its bound against the
+/// original, and every tet's stated error (E for the reference tets) holds.
+TEST(Lossy, MtBesideTheHtHonoursTheBoundAgainstTheOriginal) {
+    for (ValueType type : {ValueType::U8, ValueType::I16, ValueType::F32}) {
+        const Volume v = test::make_volume({17, 13, 9}, type, test::Field::Smooth);
+        const double r = double(range_of(v));
+        const double E = r * 0.02;
+        const std::string path = tmp("lossy_mt.tlod");
+        ContainerWriteOptions o = lossy(E);
+        o.mt = true;
+        const ContainerWriteSummary s = write_container(Volume(v), path, o);
+        const ContainerInfo info = inspect_container(path).take();
+        ASSERT_GT(info.max_error, 0);  // the case under test
+        EXPECT_EQ(s.max_error, info.max_error);
+        EXPECT_GT(s.mt_updates, 0u);
+        EXPECT_EQ(info.header.version_minor, 5);
+        EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossy);
+        EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossyMt);
+        ASSERT_TRUE(info.mt);
+        const Volume stored = decode_container(path).take();
+        EXPECT_EQ(beyond(v, stored, info.max_error), 0);
+        // The MT's field is the HT's stored one.
+        const MtModel mt = load_mt_model(path);
+        EXPECT_EQ(mt.field().data, stored.data);
+        EXPECT_EQ(mt.field_error_bound(), float(info.max_error) >= info.max_error ? float(info.max_error)
+                                                                                   : std::nextafter(float(info.max_error), INFINITY));
+        const double tol = is_float(type) ? 1e-9 * r : 1e-9;
+        for (double e : {0.0, E / 2, E, 3 * E, 0.1 * r, 0.3 * r}) {
+            SCOPED_TRACE(std::string(value_type_name(type)) + " e=" + std::to_string(e));
+            LodQuery q;
+            q.error_in = e;
+            const ContainerExtract x = extract_from_container(path, ModelKind::Mt, q).take();
+            const TetMesh& m = x.mesh;
+            EXPECT_EQ(x.field_max_error, info.max_error);
+            test::CheckOptions co;
+            co.tolerance = test::float_tolerance(stored);
+            EXPECT_TRUE(test::mesh_ok(stored, m, co));
+            int64_t bad = 0, understated = 0;
+            for (std::size_t t = 0; t < m.tet_count(); ++t) {
+                const long double against = tet_error_vs_original(v, m, t);
+                bad += !(against <= std::max(e, info.max_error) + tol);
+                understated += !(against <= double(m.error[t]) + tol) || !(double(m.error[t]) >= info.max_error);
+            }
+            EXPECT_EQ(bad, 0);
+            EXPECT_EQ(understated, 0);
+            EXPECT_GE(x.max_error, info.max_error);
+        }
+    }
+}
+
+/// The MT's encoder takes E exactly beside a lossy HT, and never alone.
+TEST(Lossy, MtFieldErrorOnlyBesideALossyHt) {
+    const Volume v = test::make_volume({6, 5, 4}, ValueType::U8, test::Field::Smooth);
+    const MtModel mt = MtModel::build(v);
+    const tlod::Metadata meta = tlod::metadata_for_volume(v);
+    MtEncodeOptions with_e;
+    with_e.field_error = 2;
+    tlod::ContainerWriter alone;
+    EXPECT_THROW(encode_mt_container(mt, meta, alone, false, with_e), Error);
+    tlod::ContainerWriter lossless;  // an HT without LOSSY: E is refused
+    lossless.set_features(tlod::kFeatureHt);
+    EXPECT_THROW(encode_mt_container(mt, meta, lossless, true, with_e), Error);
+    tlod::ContainerWriter lossy_ht;  // a lossy HT: E is required
+    lossy_ht.set_features(tlod::kFeatureHt | tlod::kFeatureLossy);
+    EXPECT_THROW(encode_mt_container(mt, meta, lossy_ht, true, MtEncodeOptions{}), Error);
+    encode_mt_container(mt, meta, lossy_ht, true, with_e);
+    EXPECT_EQ(lossy_ht.required_features(), tlod::kFeatureHt | tlod::kFeatureLossy | tlod::kFeatureLossyMt);
+    with_e.field_error = -1;
+    tlod::ContainerWriter negative;
+    negative.set_features(tlod::kFeatureHt | tlod::kFeatureLossy);
+    EXPECT_THROW(encode_mt_container(mt, meta, negative, true, with_e), Error);
+}
+
 /// The container at `path` rewritten with its METADATA format keys changed by
 /// `edit` and the required features given (checksums recomputed).
 std::string rewritten(const std::string& path, const std::string& name,
@@ -326,9 +402,13 @@ TEST(Lossy, HostileMaxErrorRefused) {
     EXPECT_FALSE(decode_container(no_key));
     const std::string no_bit = rewritten(path, "no_bit.tlod", [](auto&) {}, tlod::kFeatureHt);
     EXPECT_FALSE(decode_container(no_bit));
-    // LOSSY next to an MT (optional bit) is not a file a 3.1 writer makes.
+    // LOSSY next to an MT (optional bit) needs LOSSY_MT (3.5), which says that the
+    // MT's errors include E; LOSSY_MT needs both.
     const std::string with_mt = rewritten(path, "with_mt.tlod", [](auto&) {}, lossy_features, tlod::kFeatureMt);
     EXPECT_FALSE(tlod::ContainerReader::open(with_mt));
+    const std::string mt_bit_only =
+        rewritten(path, "mt_bit_only.tlod", [](auto&) {}, lossy_features | tlod::kFeatureLossyMt);
+    EXPECT_FALSE(tlod::ContainerReader::open(mt_bit_only));
     // Untouched, it opens (the rewrite itself is sound).
     EXPECT_TRUE(decode_container(rewritten(path, "same.tlod", [](auto&) {}, lossy_features)));
 }

@@ -246,7 +246,7 @@ TEST(CompactTable, AReaderOf31RefusesItAsAnUnsupportedFeature) {
     EXPECT_EQ(reader_31(ht_file(TableLayout::full)), ErrorCode::Ok);
     // And this reader refuses a required bit it does not know in the same way.
     auto g = f;
-    store_le(g.data() + 16, load_le(g.data() + 16, 8) | (uint64_t{1} << 4), 8);
+    store_le(g.data() + 16, load_le(g.data() + 16, 8) | (uint64_t{1} << 5), 8);  // bit 4 is LOSSY_MT (3.5)
     store_le(g.data() + 56, checksum64(std::span<const std::byte>(g.data(), 56)), 8);
     EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedFeature);
 }

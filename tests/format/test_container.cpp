@@ -300,7 +300,7 @@ TEST(Robustness, HostileHeaders) {
     }
     {  // unknown required feature
         auto g = f;
-        store_le(g.data() + 16, 0x11, 8);  // bit 4: not defined (bit 2 is LOSSY since 3.1, bit 3 COMPACT_TABLE since 3.2)
+        store_le(g.data() + 16, 0x21, 8);  // bit 5: not defined (bit 2 LOSSY since 3.1, 3 COMPACT_TABLE since 3.2, 4 LOSSY_MT since 3.5)
         reseal_header(g);
         EXPECT_EQ(ContainerReader::from_memory(g).failure().code, ErrorCode::UnsupportedFeature);
     }

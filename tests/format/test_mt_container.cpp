@@ -15,6 +15,7 @@
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/core/atomic_file.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
+#include "tetlod/container.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tlod_test_util.hpp"
@@ -167,15 +168,30 @@ std::string mt_summary(const MtModel& m) {
 // (what the MT holds and extracts). Written by the 2.1 writer; kept.
 TEST(TestVectors, MtVectorsDecodeToTheirStoredContents) {
     const std::string dir = std::string(TETLOD_SPEC_DIR) + "/test-vectors/";
-    struct V { const char* name; bool with_ht; bool current; };
+    struct V { const char* name; bool with_ht; bool current; double lossy = 0; };
     // Format 2.1 vectors (MT_Coding 1) are kept as written: a 3.0 writer would
     // write a 3.0 file (its HT in chunk modes), so they are no longer
     // regenerated. The 3.4 vectors (MT_Coding 3) are this writer's, regenerated
     // with TETLOD_REGENERATE_VECTORS=1 after a deliberate format change only.
     for (const V v : {V{"ht_mt_v2.1_u8_9x6x5", true, false}, V{"mt_v2.1_i16_6x5x4", false, false},
-                      V{"ht_mt_v3.4_u8_9x6x5", true, true}, V{"mt_v3.4_i16_6x5x4", false, true}}) {
+                      V{"ht_mt_v3.4_u8_9x6x5", true, true}, V{"mt_v3.4_i16_6x5x4", false, true},
+                      V{"ht_mt_lossy_v3.5_u8_9x6x5", true, true, 3.0}}) {
         const std::string base = dir + v.name;
-        if (v.current && std::getenv("TETLOD_REGENERATE_VECTORS")) {
+        if (v.lossy > 0 && std::getenv("TETLOD_REGENERATE_VECTORS")) {
+            // Format 3.5 (LOSSY_MT): the library's lossy writer, HT and MT over the stored field.
+            Volume vol = tlodtest::make_volume(Dims{9, 6, 5}, ValueType::U8, 42);
+            vol.metadata["sample.purpose"] = "tlod lossy MT test vector";
+            ContainerWriteOptions o;
+            o.mt = true;
+            o.max_error = v.lossy;
+            o.brick_log2 = 1;
+            o.created = 0;
+            write_container(std::move(vol), base + ".tlod", o);
+            const MtModel m = load_mt_model(base + ".tlod");
+            write_file_atomic(base + ".raw", m.field().data.data(), m.field().data.size());  // the stored field
+            const std::string js = mt_summary(m);
+            write_file_atomic(base + ".mt.json", js.data(), js.size());
+        } else if (v.current && std::getenv("TETLOD_REGENERATE_VECTORS")) {
             Volume vol = tlodtest::make_volume(v.with_ht ? Dims{9, 6, 5} : Dims{6, 5, 4},
                                                v.with_ht ? ValueType::U8 : ValueType::I16, 42);
             vol.metadata["sample.purpose"] = "tlod MT test vector";
@@ -201,5 +217,13 @@ TEST(TestVectors, MtVectorsDecodeToTheirStoredContents) {
         ASSERT_EQ(rs.size(), m.field().data.size());
         EXPECT_EQ(0, std::memcmp(rs.data(), m.field().data.data(), rs.size())) << v.name;
         EXPECT_EQ(jss, mt_summary(m)) << v.name;
+        auto r = ContainerReader::open(base + ".tlod").take();
+        EXPECT_EQ((r.header().required_features & kFeatureLossyMt) != 0, v.lossy > 0) << v.name;
+        // A lossy file's reference tets state E; its update errors include it (stored so).
+        EXPECT_EQ(m.field_error_bound(), float(v.lossy)) << v.name;
+        if (v.lossy > 0) {
+            EXPECT_EQ(r.header().version_minor, 5);
+            for (const MtSplit& u : m.updates()) EXPECT_GE(u.error, v.lossy);
+        }
     }
 }

@@ -144,7 +144,29 @@ TEST(LossyCli, ZeroIsLosslessAndBadBoundsRefused) {
         const CliRun r = run("convert '" + raw + "' '" + tmp("bad.tlod") + "' --dims 17,17,17 --dtype u8 --max-error " + bad);
         EXPECT_EQ(r.code, 2) << bad << ": " << r.err;
     }
-    const CliRun mt = run("convert '" + raw + "' '" + tmp("bad.tlod") + "' --dims 17,17,17 --dtype u8 --max-error 1 --model ht,mt");
+    const CliRun mt = run("convert '" + raw + "' '" + tmp("bad.tlod") + "' --dims 17,17,17 --dtype u8 --max-error 1 --model mt");
     EXPECT_EQ(mt.code, 2) << mt.err;
-    EXPECT_TRUE(contains(mt.err, "HT alone")) << mt.err;
+    EXPECT_TRUE(contains(mt.err, "an MT alone stores its field losslessly")) << mt.err;
+}
+
+// --model ht,mt --max-error: both models over the stored field (format 3.5), the
+// MT's bounds against the original too.
+TEST(LossyCli, BothModelsOverTheLossyField) {
+    const std::string raw = sample_raw();
+    const std::string path = converted(raw, "lossy_ht_mt", "--max-error 3 --model ht,mt");
+    const auto info = nlohmann::json::parse(run("info --json '" + path + "'").out);
+    EXPECT_EQ(info["format_version"], "3.5");
+    EXPECT_EQ(info["max_error"].get<double>(), 3.0);
+    ASSERT_EQ(info["models"].size(), 2u) << info.dump();
+    EXPECT_EQ(info["models"][1]["type"], "MT");
+    const CliRun x = run("extract '" + path + "' '" + tmp("lossy_mt.vtu") + "' --model mt --error 10 -f");
+    ASSERT_EQ(x.code, 0) << x.err;
+    EXPECT_TRUE(contains(x.out, "against the original (lossy field)")) << x.out;
+    EXPECT_FALSE(contains(x.err, "warning")) << x.err;
+    const CliRun below = run("extract '" + path + "' '" + tmp("lossy_mt.vtu") + "' --model mt --error 1 -f");
+    ASSERT_EQ(below.code, 0) << below.err;
+    EXPECT_TRUE(contains(below.out, "largest error 3 ")) << below.out;
+    EXPECT_TRUE(contains(below.err, "is lossy (every sample within 3 of the original)")) << below.err;
+    const CliRun v = run("verify --deep '" + path + "' --original '" + raw + "' --dims 17,17,17 --dtype u8");
+    EXPECT_EQ(v.code, 0) << v.out << v.err;
 }

@@ -245,7 +245,7 @@ struct ContainerExtract {
     double seconds = 0;        // open + read + extract
     double refine_seconds = 0; // HT: the split set (reading what it examines)
     double emit_seconds = 0;   // HT: the tets, handed over (written, when streamed)
-    // HT (lazy): the largest error of the mesh, what was read.
+    // The largest error of the mesh (HT and MT); HT (lazy): what was read.
     double max_error = 0;
     /// A lossy container's field.max_error E (0: lossless). Every bound above
     /// holds against the original; none is below E (the finest mesh honours E),

@@ -82,10 +82,10 @@ void check_options(const ContainerWriteOptions& o) {
     check_range("MT error bits", o.mt_error_bits, 0, 7);
     if (!(o.max_error >= 0) || !std::isfinite(o.max_error))
         throw Error(ErrorCode::InvalidArgument, "max error " + std::to_string(o.max_error) + ": expected a finite value >= 0");
-    if (o.max_error > 0 && o.mt)
+    if (o.max_error > 0 && o.mt && !o.ht)
         throw Error(ErrorCode::InvalidArgument,
-                    "a lossy container (max error > 0) holds the HT only: the MT's errors would not "
-                    "include the field's loss; convert the MT losslessly");
+                    "a lossy field is stored in the HT: a lossy container holds the HT, or the HT and "
+                    "the MT (an MT alone stores its field losslessly)");
     if (o.max_error > 0 && o.ht_errors)
         throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
 }
@@ -109,6 +109,23 @@ HtEncodeOptions encode_options(const ContainerWriteOptions& o) {
     return eo;
 }
 
+/// The MT's options a container write implies.
+MtBuildOptions mt_build_options(const ContainerWriteOptions& o) {
+    MtBuildOptions mo;
+    mo.max_shape_ratio = o.mt_max_shape_ratio;
+    if (o.progress)
+        mo.progress = [&o](uint64_t done, uint64_t total) { o.progress("build MT", std::size_t(done), std::size_t(total)); };
+    return mo;
+}
+MtEncodeOptions mt_encode_options(const ContainerWriteOptions& o, double field_error) {
+    MtEncodeOptions mo;
+    mo.zstd_level = o.zstd_level;
+    mo.large_stream_zstd_level = o.mt_large_stream_zstd_level;
+    mo.error_mantissa_bits = o.mt_error_bits;
+    mo.field_error = field_error;
+    return mo;
+}
+
 /// Lossy archival (format 3.1, HT only): two fields within E of the volume,
 /// each encoded, the smaller file kept. One follows the coder's predictions
 /// (quantize_predicted: zero residuals in smooth regions, the better one on
@@ -117,6 +134,8 @@ HtEncodeOptions encode_options(const ContainerWriteOptions& o) {
 /// wide integers). The padded cube is coded too: there only the second. The
 /// lossless file competes as well (its field is within any E and its bounds
 /// are exact): on fields the quantizers cannot simplify it is the smallest.
+/// With o.mt (format 3.5) the MT is built afterwards on the field kept, so it
+/// shares the HT's samples, and its update errors are stored with E added.
 ContainerWriteSummary write_lossy_container(Volume volume, const std::string& path, const ContainerWriteOptions& o,
                                            double max_error, const Stopwatch& clock) {
     const tlod::Metadata provenance = with_provenance(tlod::metadata_for_volume(volume), o);
@@ -133,6 +152,7 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
     HtBuildOptions bo;
     bo.pad = o.pad;
     std::optional<tlod::ContainerWriter> best;
+    std::optional<HtModel> best_model;  // its field is the MT's (o.mt)
     std::size_t best_index = 0;
     ContainerWriteSummary summary;
     // Ties go to the earlier field of the list (lossless, then the predicted
@@ -160,9 +180,23 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
             best = std::move(w);
             best_index = i;
             summary.max_error = eo.max_error;
+            if (o.mt) best_model.emplace(model);
         }
     }
     if (o.progress) o.progress("encoded HT", 0, 0);
+    if (o.mt) {
+        // The stored field, as the HT holds it (cropped back to the data when padded).
+        const Volume& held = best_model->field();
+        Volume stored = held.dims == provenance.dims ? held : crop_volume(held, provenance.dims);
+        best_model.reset();
+        const MtModel mt = MtModel::build(stored, mt_build_options(o));
+        if (o.progress) o.progress("built MT", 0, 0);
+        tlod::Metadata meta = provenance;
+        meta.value_range = tlod::metadata_for_volume(stored).value_range;
+        encode_mt_container(mt, meta, *best, true, mt_encode_options(o, summary.max_error));
+        summary.mt_updates = mt.updates().size();
+        summary.mt_base_tets = mt.base_tets().size();
+    }
     best->write(path);
     std::error_code size_error;  // "-" (standard output) has no size
     summary.bytes = std::filesystem::file_size(path, size_error);
@@ -293,9 +327,9 @@ HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
                                       const ContainerWriteOptions& o) {
     check_options(o);
-    // check_options refuses a lossy MT, so a lossy request here is HT only.
+    // The MT is built from the whole volume: a lossy request with it reads it whole.
     const double max_error = stored_max_error(source.header().type, o.max_error);
-    if (max_error > 0 && !lossy_reads_whole(source.header(), o.memory_bytes))
+    if (max_error > 0 && !o.mt && !lossy_reads_whole(source.header(), o.memory_bytes))
         return write_lossy_streaming(source, path, o, max_error, Stopwatch());
     if (o.mt || o.max_error > 0) {
         // The MT is built from the whole volume, and the lossy field is chosen
@@ -333,13 +367,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
     w.set_table(o.table);
     std::optional<MtModel> mt;
     if (o.mt) {
-        MtBuildOptions mo;
-        mo.max_shape_ratio = o.mt_max_shape_ratio;
-        if (o.progress)
-            mo.progress = [&](uint64_t done, uint64_t total) {
-                o.progress("build MT", std::size_t(done), std::size_t(total));
-            };
-        mt = MtModel::build(volume, mo);
+        mt = MtModel::build(volume, mt_build_options(o));
         progress("built MT", 0, 0);
     }
     if (o.ht) {
@@ -354,11 +382,7 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         summary.ht_max_level = model.domain().max_level();
     }
     if (mt) {
-        MtEncodeOptions mo;
-        mo.zstd_level = o.zstd_level;
-        mo.large_stream_zstd_level = o.mt_large_stream_zstd_level;
-        mo.error_mantissa_bits = o.mt_error_bits;
-        encode_mt_container(*mt, meta, w, o.ht, mo);
+        encode_mt_container(*mt, meta, w, o.ht, mt_encode_options(o, 0));
         summary.mt_updates = mt->updates().size();
         summary.mt_base_tets = mt->base_tets().size();
     }

@@ -37,6 +37,7 @@
 
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/codecs/error_quantizer.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/core/varint.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/format/container.hpp"
@@ -215,6 +216,8 @@ Expected<std::vector<std::byte>> join_stream_frames(std::span<const std::byte> p
 std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
     if (opt.coding != 2 && opt.coding != 3)
         throw Error(ErrorCode::InvalidArgument, "MT: coding " + std::to_string(opt.coding) + " cannot be written (2 or 3)");
+    if (!(opt.field_error >= 0) || !std::isfinite(opt.field_error))
+        throw Error(ErrorCode::InvalidArgument, "MT: the field's error bound must be finite and >= 0");
     const bool c3 = opt.coding == 3;
     const int nstreams = stream_count(uint64_t(opt.coding));
     const Dims& D = m.dims();
@@ -247,7 +250,7 @@ std::vector<uint8_t> encode_mt(const MtModel& m, const MtEncodeOptions& opt) {
             near.push_back(kFarOffset);
             for (int a = 0; a < 3; ++a) put_varint(far, zigzag(d[a]));
         }
-        const uint16_t code = quantize_error(u.error, mb);
+        const uint16_t code = quantize_error(opt.field_error > 0 ? bound_against_original(u.error, opt.field_error) : u.error, mb);
         if (c3) {
             labels.push_back(uint8_t(u.label));
             put_varint(label_hi, u.label >> 8);

@@ -27,6 +27,14 @@ void encode_mt_container(const MtModel& model, const tlod::Metadata& meta, tlod:
         throw Error(ErrorCode::InvalidArgument, "metadata does not describe the MT's volume");
     MtEncodeOptions o = options;
     o.include_field = !with_ht;
+    if (o.field_error > 0 && !with_ht)
+        throw Error(ErrorCode::InvalidArgument, "a lossy field is the HT's: an MT alone stores its field losslessly");
+    // Beside a lossy HT (encode_ht set LOSSY) the MT's errors must include E.
+    const bool lossy = with_ht && (w.required_features() & tlod::kFeatureLossy) != 0;
+    if (lossy != (o.field_error > 0))
+        throw Error(ErrorCode::InvalidArgument,
+                    lossy ? "an MT beside a lossy HT needs the field's E (MtEncodeOptions::field_error)"
+                          : "MtEncodeOptions::field_error is for an MT beside a lossy HT");
     const std::vector<uint8_t> bytes = encode_mt(model, o);
     if (bytes.size() < kMtHeaderSize) throw Error(ErrorCode::InvalidArgument, "MT encoding too short");
     const auto* b = reinterpret_cast<const std::byte*>(bytes.data());
@@ -35,7 +43,8 @@ void encode_mt_container(const MtModel& model, const tlod::Metadata& meta, tlod:
     // non-critical sections and still reads the HT.
     const uint32_t flags = with_ht ? 0 : tlod::kSectionCritical;
     if (with_ht) {
-        w.set_features(tlod::kFeatureHt, tlod::kFeatureMt);
+        // The HT's features stay (LOSSY); a lossy file says its MT's errors include E.
+        w.set_features(w.required_features() | (lossy ? tlod::kFeatureLossyMt : 0), tlod::kFeatureMt);
     } else {
         w.set_features(tlod::kFeatureMt);
         w.add(tlod::kSectionMetadata, tlod::kSectionCritical, 0, 0, tlod::serialize_metadata(meta), o.zstd_level);
@@ -55,6 +64,9 @@ Expected<MtLayout> read_mt_layout(tlod::ContainerReader& r) {
         return fail(ErrorCode::CorruptData, where + "an MT without an HT must be a required feature");
     MtLayout L;
     L.with_ht = (h.required_features & tlod::kFeatureHt) != 0;
+    // A lossy field is the HT's (spec §5.1): an MT alone carries its samples as they are.
+    if ((h.required_features & tlod::kFeatureLossy) && !L.with_ht)
+        return fail(ErrorCode::CorruptData, where + "the LOSSY feature without an HT (an MT alone stores its field losslessly)");
     const auto& secs = r.sections();
     std::vector<std::size_t> known;
     for (std::size_t i = 0; i < secs.size(); ++i)
@@ -113,7 +125,11 @@ Expected<MtModel> decode_mt_container(tlod::ContainerReader& r) {
     auto L = read_mt_layout(r);
     if (!L) return L.failure();
     Volume field;
+    double field_error = 0;  // a lossy file's E: its update errors include it, its reference tets state it
     if (L->with_ht) {
+        auto ht = read_ht_layout(r);
+        if (!ht) return ht.failure();
+        field_error = ht->max_error;
         auto v = decode_volume(r);
         if (!v) return v.failure();
         field = std::move(*v);
@@ -127,6 +143,7 @@ Expected<MtModel> decode_mt_container(tlod::ContainerReader& r) {
     if (!body->empty()) std::memcpy(bytes.data() + head->size(), body->data(), body->size());
     auto m = decode_mt(bytes, L->with_ht ? &field : nullptr);
     if (!m) return with_context(r.name() + ": MT sections: ", m.failure());
+    m->set_field_error_bound(field_error);
     return m;
 }
 

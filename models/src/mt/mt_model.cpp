@@ -2,6 +2,7 @@
 // order extraction needs: updates grouped by survivor, sorted by label (CSR).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "tetlod/models/detail/mt_geometry.hpp"
@@ -26,6 +27,14 @@ void copy_bits(const std::vector<uint64_t>& src, uint64_t from, std::vector<uint
     }
 }
 }  // namespace
+
+void MtModel::set_field_error_bound(double e) {
+    if (!(e >= 0) || !std::isfinite(e))
+        throw Error(ErrorCode::InvalidArgument, "MT model: the field's error bound must be finite and >= 0");
+    float f = static_cast<float>(e);  // rounded up, as HtModel states it
+    if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    field_error_bound_ = f;
+}
 
 MtModel MtModel::from_parts(Volume field, std::vector<std::array<uint32_t, 4>> base_tets,
                             std::vector<MtUpdate> updates, std::vector<uint64_t> mask_bits) {

@@ -280,7 +280,8 @@ struct MtRefiner {
             const auto& v = ts[t];
             mesh.tets.push_back({vid[v[0]], vid[v[1]], vid[v[2]], vid[v[3]]});
             const uint32_t c = creator(v);
-            const double e = c == kNil ? 0.0 : m.splits_[current_update(c)].error;
+            // A reference tet's grid points are its vertices: no error but the field's own.
+            const double e = c == kNil ? double(m.field_error_bound_) : m.splits_[current_update(c)].error;
             const uint32_t lv = c == kNil ? m.max_label_ : m.max_label_ - verts[c].label;
             mesh.level.push_back(uint8_t(std::min<uint32_t>(lv, 255)));
             mesh.error.push_back(float(e));

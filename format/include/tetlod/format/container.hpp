@@ -41,6 +41,9 @@ inline constexpr uint16_t kVersion3_3_Minor = 3;
 /// The first chunk mode (table Flags bits 8-11) of 3.3: a file with a section
 /// of this mode or above says 3.3.
 inline constexpr uint32_t kFirstChunkModeOf3_3 = 4;
+/// 3.5: an MT in a lossy file (required feature bit 4, LOSSY_MT). Written only
+/// by such files.
+inline constexpr uint16_t kVersion3_5_Minor = 5;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).
@@ -67,7 +70,13 @@ inline constexpr uint64_t kFeatureLossy = uint64_t{1} << 2;
 /// Section_Count fixed 48-byte entries. Required so that a 3.0/3.1 reader
 /// refuses the file instead of reading the compact table as entries.
 inline constexpr uint64_t kFeatureCompactTable = uint64_t{1} << 3;
-inline constexpr uint64_t kKnownRequiredFeatures = kFeatureHt | kFeatureMt | kFeatureLossy | kFeatureCompactTable;
+/// Required (3.5): a LOSSY file also holds an MT (next to its HT), built on the
+/// stored field, whose update errors include E (spec §5.1): set exactly when
+/// LOSSY and the MT are, so that a 3.1-3.4 reader, which knows lossy files only
+/// without an MT, refuses the file as needing a newer reader.
+inline constexpr uint64_t kFeatureLossyMt = uint64_t{1} << 4;
+inline constexpr uint64_t kKnownRequiredFeatures =
+    kFeatureHt | kFeatureMt | kFeatureLossy | kFeatureCompactTable | kFeatureLossyMt;
 
 /// How a writer lays out the section table: compact (format 3.2, spec §4.4:
 /// one zstd frame of varint columns, offsets implicit) or full (48-byte
@@ -197,6 +206,7 @@ public:
         header_.required_features = required;
         header_.optional_features = optional;
     }
+    uint64_t required_features() const { return header_.required_features; }
     /// The section table's layout (default compact, format 3.2). A file with the
     /// full table says 3.1 when lossy and 3.0 otherwise, byte for byte as before 3.2.
     void set_table(TableLayout layout) {

@@ -34,6 +34,11 @@ struct MtEncodeOptions {
     int error_mantissa_bits = 7;
     /// Store the field samples too (otherwise decode_mt needs the field).
     bool include_field = false;
+    /// A lossy container's E (spec §5.1; 0: lossless). The model was built on the
+    /// stored field f', within E of the original: every update's error is stored as
+    /// bound_against_original(error, E), so the bounds hold against the original
+    /// for any reader (|L_T - f| <= |L_T - f'| + E).
+    double field_error = 0;
     /// MT_Coding to write: 3 (default, format 3.4) or 2, which format 3.1-3.3
     /// readers also read (12 and 11 streams, spec §10.2). Anything else throws.
     int coding = kMtCodecVersion;

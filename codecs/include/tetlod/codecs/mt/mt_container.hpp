@@ -17,6 +17,9 @@ namespace tetlod {
 /// Appends the MT sections. With `with_ht` the writer must already hold the
 /// HT of the same volume (encode_ht); otherwise METADATA is written first and the
 /// field goes into the MT payload. Sets the features. Throws tetlod::Error.
+/// Next to a lossy HT (format 3.1, spec §5.1) the model must be built on the
+/// HT's stored field and options.field_error be its E: the stored update errors
+/// then hold against the original. An MT alone is never lossy.
 void encode_mt_container(const MtModel& model, const tlod::Metadata& meta, tlod::ContainerWriter& writer,
                          bool with_ht, const MtEncodeOptions& options = {});
 

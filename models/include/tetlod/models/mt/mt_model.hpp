@@ -154,6 +154,15 @@ public:
 
     std::array<double, 2> value_range() const { return range_; }
 
+    /// The bound against the original of a reference tet (created by no update,
+    /// its grid points its vertices): 0 unless the field is a lossy container's,
+    /// within E of the original (E rounded up to float). Update errors read from
+    /// such a container already include E (spec §5.1).
+    float field_error_bound() const { return field_error_bound_; }
+    /// Sets it (container readers: the E of a lossy file). Throws
+    /// InvalidArgument unless e is finite and >= 0.
+    void set_field_error_bound(double e);
+
     /// Bytes the model holds in memory: the capacities of all its arrays (field,
     /// base mesh, updates, masks, per-point update lists, history) and the object.
     std::size_t memory_bytes() const;
@@ -172,6 +181,7 @@ private:
     std::vector<std::array<uint32_t, 4>> base_;
     std::vector<MtUpdate> updates_;  // build and from_parts stage here; finalize moves them to splits_
     std::vector<MtSplit> splits_;
+    float field_error_bound_ = 0;
     std::vector<uint64_t> mask_bits_;
     std::vector<uint64_t> mask_start_;  // mask offset of updates_[64 j]
     std::vector<uint32_t> csr_start_;   // updates_ of survivor p: [csr_start_[p], csr_start_[p + 1])
