@@ -2,11 +2,10 @@
 #include "ht_chunk_cache.hpp"
 
 #include <bit>
-#include <cmath>
 #include <cstring>
-#include <limits>
 
 #include "ht_chunk_decoder.hpp"
+#include "tetlod/core/float_bound.hpp"
 
 namespace tetlod::ht_detail {
 
@@ -312,10 +311,7 @@ float CachedSampleSource::error(const Point& p) {
 
 float CachedSampleSource::field_error_bound() {
     // E rounded up to float, as HtModel::from_parts states it for a decoded model.
-    const double e = cache_.layout().max_error;
-    float f = static_cast<float>(e);
-    if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-    return f;
+    return float_at_least(cache_.layout().max_error);
 }
 
 double CachedSampleSource::value(const Point& p) {

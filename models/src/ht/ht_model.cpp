@@ -5,11 +5,11 @@
 #include <bit>
 #include <cstring>
 #include <cmath>
-#include <limits>
 #include <string>
 
 #include "ht_error_build.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/float_bound.hpp"
 
 namespace tetlod {
 
@@ -112,10 +112,7 @@ HtModel HtModel::over_shared_parts(std::shared_ptr<const Volume> field, const Ht
     m.field_ = std::move(field);
     m.errors_ = std::move(errors);
     m.range_ = range;
-    // Rounded up, as a lossy reader rounds every stored bound + E (spec §5.1).
-    float e = static_cast<float>(field_error);
-    if (static_cast<double>(e) < field_error) e = std::nextafter(e, std::numeric_limits<float>::infinity());
-    m.field_error_bound_ = e;
+    m.field_error_bound_ = float_at_least(field_error);  // rounded up, as every stated bound
     return m;
 }
 

@@ -2,12 +2,12 @@
 // order extraction needs: updates grouped by survivor, sorted by label (CSR).
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <string>
 
 #include "tetlod/models/detail/mt_geometry.hpp"
 #include "tetlod/models/mt/mt_model.hpp"
 #include "tetlod/core/error.hpp"
+#include "tetlod/core/float_bound.hpp"
 
 namespace tetlod {
 
@@ -31,9 +31,7 @@ void copy_bits(const std::vector<uint64_t>& src, uint64_t from, std::vector<uint
 void MtModel::set_field_error_bound(double e) {
     if (!(e >= 0) || !std::isfinite(e))
         throw Error(ErrorCode::InvalidArgument, "MT model: the field's error bound must be finite and >= 0");
-    float f = static_cast<float>(e);  // rounded up, as HtModel states it
-    if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-    field_error_bound_ = f;
+    field_error_bound_ = float_at_least(e);  // rounded up, as HtModel states it
 }
 
 MtModel MtModel::from_parts(Volume field, std::vector<std::array<uint32_t, 4>> base_tets,
