@@ -333,6 +333,42 @@ TEST(Lossy, MtBesideTheHtHonoursTheBoundAgainstTheOriginal) {
     }
 }
 
+/// A LOSSY_MT file whose MT did not add E (an update error below it) is refused:
+/// its bounds would be those of the stored field.
+TEST(Lossy, MtErrorsBelowTheFieldsBoundRefused) {
+    const Volume v = test::make_volume({17, 13, 9}, ValueType::U8, test::Field::Smooth);
+    const std::string ht_only = tmp("lossy_ht_only.tlod");
+    write_container(Volume(v), ht_only, lossy(3));
+    const ContainerInfo info = inspect_container(ht_only).take();
+    ASSERT_EQ(info.max_error, 3.0);
+    const Volume stored = decode_container(ht_only).take();
+    const MtModel mt = MtModel::build(stored);
+    auto build = [&](double field_error, const std::string& name) {
+        auto r = tlod::ContainerReader::open(ht_only).take();
+        tlod::ContainerWriter w;
+        w.set_features(r.header().required_features & ~tlod::kFeatureCompactTable);
+        for (std::size_t i = 0; i < r.sections().size(); ++i) {
+            const tlod::SectionInfo s = r.sections()[i];
+            w.add_stored(s.type, s.flags, s.arg0, s.arg1, r.read_stored(i).take(), s.raw_size);
+        }
+        MtEncodeOptions eo;
+        eo.field_error = field_error;
+        encode_mt_container(mt, tlod::metadata_for_volume(stored), w, true, eo);
+        const std::string out = tmp(name);
+        w.write(out);
+        return out;
+    };
+    const std::string honest = build(3, "lossy_mt_honest.tlod");
+    EXPECT_TRUE(decode_mt_container(*tlod::ContainerReader::open(honest)).ok());
+    const std::string forgot = build(1e-3, "lossy_mt_forgot.tlod");
+    auto r = tlod::ContainerReader::open(forgot);
+    ASSERT_TRUE(r.ok());  // the header is consistent: the MT's errors are what is wrong
+    const auto m = decode_mt_container(*r);
+    ASSERT_FALSE(m.ok());
+    EXPECT_EQ(m.failure().code, ErrorCode::CorruptData);
+    EXPECT_NE(m.failure().message.find("below the field's E"), std::string::npos) << m.failure().message;
+}
+
 /// The MT's encoder takes E exactly beside a lossy HT, and never alone.
 TEST(Lossy, MtFieldErrorOnlyBesideALossyHt) {
     const Volume v = test::make_volume({6, 5, 4}, ValueType::U8, test::Field::Smooth);

@@ -143,6 +143,16 @@ Expected<MtModel> decode_mt_container(tlod::ContainerReader& r) {
     if (!body->empty()) std::memcpy(bytes.data() + head->size(), body->data(), body->size());
     auto m = decode_mt(bytes, L->with_ht ? &field : nullptr);
     if (!m) return with_context(r.name() + ": MT sections: ", m.failure());
+    // Spec §5.1: beside a lossy HT every stored update error includes E, so none is
+    // below it; one that is comes from a writer that did not add E (its bounds would
+    // be those of the stored field, not of the original).
+    if (field_error > 0)
+        for (const MtSplit& u : m->updates())
+            if (!(double(u.error) >= field_error))
+                return fail(ErrorCode::CorruptData, r.name() + ": MT sections: an update error (" +
+                                                        std::to_string(u.error) + ") below the field's E (" +
+                                                        std::to_string(field_error) +
+                                                        "): the MT's bounds do not include the field's loss");
     m->set_field_error_bound(field_error);
     return m;
 }
