@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -248,12 +249,25 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
             r = mt::BrickResult{};
         };
         BrickAdmission admission(std::max(kBrickBudgetPerPoint * size_t(n), kBrickBudgetFloor));
-        // Fewer bricks than threads (the last pass): the bricks' evaluations use the rest.
-        const bool spare_threads = bricks < size_t(arena.max_concurrency());
+        // Fewer bricks than threads (the last pass): the bricks' evaluations use the rest
+        // from the start. Otherwise from the moment a brick ends with none left to start:
+        // its thread would idle while the others finish theirs (no outer task is left for
+        // a thread waiting on a walk to take up).
+        std::atomic<bool> spare_threads{bricks < size_t(arena.max_concurrency())};
+        // Larger first (by powers of two of their working bytes), so that the pass does
+        // not end on one large brick alone. They still merge in brick order (same bytes
+        // whatever order they run in), so bricks of about the same size keep that order:
+        // a finished brick's result waits for those before it to merge.
+        std::vector<size_t> work(bricks), start_order(bricks);
+        for (size_t b = 0; b < bricks; ++b) work[b] = mt::brick_working_bytes(boxes[b], inputs[b]), start_order[b] = b;
+        std::stable_sort(start_order.begin(), start_order.end(),
+                         [&](size_t a, size_t b) { return std::bit_width(work[a]) > std::bit_width(work[b]); });
+        std::atomic<size_t> next_start{0};
         arena.execute([&] {
-            tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t b) {
+            tbb::parallel_for(size_t(0), bricks, size_t(1), [&](size_t) {
+                const size_t b = start_order[next_start++];
                 std::optional<BrickAdmission::Ticket> ticket;
-                ticket.emplace(admission, mt::brick_working_bytes(boxes[b], inputs[b]));
+                ticket.emplace(admission, work[b]);
                 const int now = ++in_flight;
                 for (int seen = most_in_flight; now > seen && !most_in_flight.compare_exchange_weak(seen, now);) {
                 }
@@ -264,8 +278,9 @@ MtModel MtModel::build(Volume volume, const MtBuildOptions& options) {
                         progress.brick_part(pass, boxes[b], double(collapses) / double(candidates), reported);
                     };
                 results[b] = mt::decimate_brick(vol, pass_options, boxes[b], inputs[b], nodes, within,
-                                                spare_threads);
+                                                &spare_threads);
                 --in_flight;
+                if (next_start.load() >= bricks) spare_threads = true;
                 ticket.reset();
                 {
                     std::lock_guard<std::mutex> lock(merging);

@@ -137,9 +137,11 @@ struct BrickDecimator {
     uint32_t seq_counter = 0;
     std::priority_queue<Entry> heap;
     /// Evaluations walk their points on several threads (walk_points_in_parallel) when
-    /// they have at least kParallelPoints: set for a pass of fewer bricks than threads,
-    /// whose other threads would idle (the last pass: one brick).
-    bool parallel_points = false;
+    /// they have at least kParallelPoints, while this reads true: from the start of a
+    /// pass of fewer bricks than threads (the last pass: one brick), and in any pass
+    /// once every brick has started, when finished threads would idle.
+    const std::atomic<bool>* spare_threads = nullptr;
+    bool parallel_points() const { return spare_threads && spare_threads->load(std::memory_order_relaxed); }
     static constexpr size_t kParallelPoints = 128, kPointGrain = 64;
     std::vector<double> point_dev;
 
@@ -696,7 +698,7 @@ struct BrickDecimator {
     }
 
     void gather_points(uint32_t w) {
-        if (parallel_points && gather_points_in_parallel(w)) return;
+        if (parallel_points() && gather_points_in_parallel(w)) return;
         // The owned point lists are chains of dependent loads, one cache miss per point
         // in the last passes. Walking all the star's chains a step at a time, only to
         // prefetch, overlaps the misses of different tets; the walk below, in the order
@@ -883,7 +885,7 @@ struct BrickDecimator {
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
                 located.resize(pts.size());
-                if (parallel_points && pts.size() >= kParallelPoints) {
+                if (pts.size() >= kParallelPoints && parallel_points()) {
                     walk_points_in_parallel(over_limit, cost, ok, over);
                 } else for (size_t i = 0; i < pts.size(); ++i) {
                     const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
@@ -1241,10 +1243,10 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
 
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
                            const std::vector<BrickMesh*>& input, NodeState& nodes, const BrickProgress& progress,
-                           bool parallel_points) {
+                           const std::atomic<bool>* spare_threads) {
     BrickResult r;
     BrickDecimator d(vol, opt, box, input, nodes, r);
-    d.parallel_points = parallel_points;
+    d.spare_threads = spare_threads;
     d.run(progress);
     r.mask_bit_count = d.mask_bit_count;
     return r;

@@ -7,6 +7,7 @@
 // brick, and two bricks of one pass touch disjoint tets and disjoint nodes, so they can run in parallel and
 // their collapses, concatenated in any fixed order, form one valid collapse sequence
 // of the whole mesh.
+#include <atomic>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -82,10 +83,11 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
 /// Decimates the brick. `input`: the tets of the brick (the previous pass's tets that
 /// lie in its box, in a fixed order), emptied once read; empty: start from the
 /// reference mesh of the box. Deterministic: the result depends only on the arguments
-/// (not on `progress`, which may be empty, nor on `parallel_points`: evaluations of
-/// many points then walk them on the calling arena's threads, for the same answers).
+/// (not on `progress`, which may be empty, nor on `spare_threads`: while it reads
+/// true, evaluations of many points walk them on the calling arena's threads, for
+/// the same answers; the build sets it once no brick of the pass is left to start).
 BrickResult decimate_brick(const Volume& vol, const MtBuildOptions& opt, const BrickBox& box,
                            const std::vector<BrickMesh*>& input, NodeState& nodes,
-                           const BrickProgress& progress = {}, bool parallel_points = false);
+                           const BrickProgress& progress = {}, const std::atomic<bool>* spare_threads = nullptr);
 
 }  // namespace tetlod::mt

@@ -1,9 +1,13 @@
-// The last pass's evaluations walk their points on the arena's spare threads
-// (decimate_brick's parallel_points): the brick's result must be the sequential one,
-// byte for byte, and the parallel walks must actually have run.
+// Evaluations walk their points on the arena's spare threads while decimate_brick's
+// spare_threads flag reads true (the last pass from its start, any pass once all its
+// bricks have started): the brick's result must be the sequential one, byte for byte,
+// the parallel walks must actually have run, and the flag may change at any moment.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <numeric>
+#include <thread>
 
 #include <tbb/task_arena.h>
 
@@ -18,7 +22,9 @@ struct BrickRun {
     mt::NodeState nodes;
 };
 
-BrickRun decimate_whole_volume(const Volume& v, bool parallel_points) {
+/// `toggle`: the flag flips every few microseconds while the brick runs (a pass's
+/// threads finishing their bricks set it at moments no result may depend on).
+BrickRun decimate_whole_volume(const Volume& v, bool parallel_points, bool toggle = false) {
     BrickRun run;
     const uint32_t n = uint32_t(v.count());
     run.nodes.node.resize(n);
@@ -29,7 +35,18 @@ BrickRun decimate_whole_volume(const Volume& v, bool parallel_points) {
     box.hi = {v.dims.x - 1, v.dims.y - 1, v.dims.z - 1};
     const MtBuildOptions options;
     tbb::task_arena arena(2);
-    arena.execute([&] { run.result = mt::decimate_brick(v, options, box, {}, run.nodes, {}, parallel_points); });
+    std::atomic<bool> spare{parallel_points}, done{false};
+    std::thread flipper;
+    if (toggle)
+        flipper = std::thread([&] {
+            while (!done) {
+                spare = !spare.load();
+                std::this_thread::sleep_for(std::chrono::microseconds(50));
+            }
+        });
+    arena.execute([&] { run.result = mt::decimate_brick(v, options, box, {}, run.nodes, {}, &spare); });
+    done = true;
+    if (flipper.joinable()) flipper.join();
     return run;
 }
 
@@ -39,9 +56,12 @@ TEST(MtParallelWalks, SameBrickAsTheSequentialWalk) {
                            std::tuple{Dims{21, 18, 20}, ValueType::I16, Field::Plateau}}) {
         SCOPED_TRACE(dims_str(d));
         const Volume v = make_volume(d, t, f, 3);
-        const BrickRun seq = decimate_whole_volume(v, false), par = decimate_whole_volume(v, true);
+        const BrickRun seq = decimate_whole_volume(v, false), all = decimate_whole_volume(v, true),
+                       flipping = decimate_whole_volume(v, false, true);
         EXPECT_EQ(seq.result.stats.parallel_walks, 0u);
-        EXPECT_GT(par.result.stats.parallel_walks, 0u) << "no evaluation was large enough to walk in parallel";
+        EXPECT_GT(all.result.stats.parallel_walks, 0u) << "no evaluation was large enough to walk in parallel";
+        for (const BrickRun* p : {&all, &flipping}) {
+        const BrickRun& par = *p;
         ASSERT_EQ(seq.result.updates.size(), par.result.updates.size());
         for (size_t k = 0; k < seq.result.updates.size(); ++k) {
             const MtUpdate &a = seq.result.updates[k], &b = par.result.updates[k];
@@ -58,6 +78,7 @@ TEST(MtParallelWalks, SameBrickAsTheSequentialWalk) {
         EXPECT_EQ(seq.result.stats.evaluations, par.result.stats.evaluations);
         EXPECT_EQ(seq.result.stats.located, par.result.stats.located);
         EXPECT_EQ(seq.result.stats.gathered, par.result.stats.gathered);
+        }
     }
 }
 
