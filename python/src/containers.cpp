@@ -1,10 +1,13 @@
 // .tlod containers from Python: what one holds (info, models), writing one from
 // a volume file (convert), and decoding its volume back (decode).
+#include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "bindings.hpp"
 #include "common.hpp"
+#include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/container.hpp"
 #include "tetlod/converters/volume_formats.hpp"
 #include "tetlod/core/value_type.hpp"
@@ -59,14 +62,18 @@ py::dict info_dict(const ContainerInfo& info) {
 }
 
 py::dict convert(const std::string& input, const std::string& output, bool ht, bool mt, bool pad,
-                 std::optional<int> zstd_level, const py::object& max_error, py::kwargs kwargs) {
+                 std::optional<int> zstd_level, const py::object& max_error,
+                 std::optional<std::int64_t> memory_bytes, py::kwargs kwargs) {
     const VolumeReadOptions read = read_options(kwargs);
     // Lossy archival (format 3.1, 3.5 with the MT): a number in field units or
     // '1%' of the value range, as the CLI's --max-error; None or 0: lossless.
     const Threshold lossy = threshold(max_error, 0.0);
     if (!(lossy.value >= 0) || !std::isfinite(lossy.value))
         throw Error(ErrorCode::InvalidArgument, "max_error: expected a finite bound >= 0 (0 or None: lossless)");
+    if (memory_bytes && *memory_bytes <= 0)
+        throw Error(ErrorCode::InvalidArgument, "memory_bytes: expected a positive number of bytes (None: a quarter of RAM)");
     ContainerWriteOptions options;
+    if (memory_bytes) options.memory_bytes = std::size_t(*memory_bytes);
     options.ht = ht;
     options.mt = mt;
     options.pad = pad;
@@ -78,9 +85,20 @@ py::dict convert(const std::string& input, const std::string& output, bool ht, b
     ContainerWriteSummary summary;
     {
         py::gil_scoped_release release;
-        Volume volume = read_volume_file(input, read).take();
-        options.max_error = lossy.resolve(volume.range());
-        summary = write_container(std::move(volume), output, options);
+        // As `tetlod convert`: a format that reads planes is handed over as
+        // planes, so the HT alone is written in memory bounded by the budget,
+        // not by the volume (the library reads them whole for the MT, or for a
+        // lossy field that fits the budget); other formats are read whole.
+        if (std::unique_ptr<VolumePlanes> planes = open_volume_planes(input, read)) {
+            // "P%": one more read of the planes, as the CLI's.
+            options.max_error = lossy.value > 0 && lossy.percent ? lossy.resolve(planes_value_range(*planes))
+                                                                  : lossy.resolve({0, 0});
+            summary = write_container(*planes, output, options);
+        } else {
+            Volume volume = read_volume_file(input, read).take();
+            options.max_error = lossy.resolve(volume.range());
+            summary = write_container(std::move(volume), output, options);
+        }
     }
     py::dict d;
     d["path"] = output;
@@ -127,12 +145,15 @@ void bind_containers(py::module_& m) {
           "True when path names a .tlod container (by its first bytes, or its extension).");
     m.def("convert", &convert, py::arg("input"), py::arg("output"), py::arg("ht") = true,
           py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = py::none(),
-          py::arg("max_error") = py::none(),
+          py::arg("max_error") = py::none(), py::arg("memory_bytes") = py::none(),
           "Converts a volume file into a .tlod container holding the HT and/or the MT. "
           "max_error: None (lossless), a bound in field units or '1%' of the value range: every "
           "stored sample within it of the original, every error bound stated against the "
-          "original (the HT, or the HT and the MT; not the MT alone). Volume keywords as for "
-          "read_volume. Returns a summary dict (max_error: the bound stated, 0 when lossless).");
+          "original (the HT, or the HT and the MT; not the MT alone). memory_bytes: what the "
+          "conversion plans for (None: a quarter of RAM); the HT alone is then converted plane by "
+          "plane from raw, NRRD, MetaImage, HDF5 and OpenVDB files, in that memory whatever the "
+          "volume's size. Volume keywords as for read_volume. Returns a summary dict (max_error: "
+          "the bound stated, 0 when lossless).");
     m.def(
         "decode",
         [](const std::string& path) {

@@ -204,3 +204,30 @@ def test_convert_lossy_with_both_models(volume, work):
             tetlod.convert(volume[0], str(work / "bad.tlod"), max_error=bad)
     with pytest.raises(tetlod.Error, match="MT alone"):
         tetlod.convert(volume[0], str(work / "bad.tlod"), ht=False, mt=True, max_error=3)
+
+
+def test_convert_streams_the_ht_within_a_memory_budget(work, monkeypatch):
+    # A file format that reads planes is converted plane by plane (the HT
+    # alone): memory_bytes is the budget it plans for, the bytes are those of
+    # the default conversion, and a budget too small to stream is refused.
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "0")
+    array = tetlod.sample_volume("multiscale", (33, 31, 29), "u16")
+    source = str(work / "ms_u16.nrrd")
+    tetlod.write_volume(array, source)
+    default = str(work / "stream_default.tlod")
+    budget = str(work / "stream_64mib.tlod")
+    tetlod.convert(source, default)
+    assert tetlod.convert(source, budget, memory_bytes=64 << 20)["bytes"] > 0
+    with open(default, "rb") as a, open(budget, "rb") as b:
+        assert a.read() == b.read()
+    assert np.array_equal(tetlod.decode(budget), np.array(array))
+    with pytest.raises(tetlod.Error, match="plane by plane"):
+        tetlod.convert(source, str(work / "stream_tiny.tlod"), memory_bytes=4096)
+    with pytest.raises(tetlod.Error, match="memory_bytes"):
+        tetlod.convert(source, str(work / "stream_zero.tlod"), memory_bytes=0)
+    # "1%" from planes: the original's range, read before the conversion.
+    lossy = str(work / "stream_lossy.tlod")
+    original = np.array(array).astype(np.int64)
+    bound = np.floor((original.max() - original.min()) / 100)
+    assert tetlod.convert(source, lossy, max_error="1%", memory_bytes=64 << 20)["max_error"] == bound
+    assert np.abs(tetlod.decode(lossy).astype(np.int64) - original).max() <= bound

@@ -293,7 +293,7 @@ private:
                     "converting this volume plane by plane needs at least " + std::to_string(need) +
                         " MiB with bricks of 2^" + std::to_string(o_.encode.brick_log2 + 1) +
                         " steps (budget " + std::to_string(o_.memory_bytes >> 20) +
-                        " MiB): raise --memory or lower --brick-log2");
+                        " MiB): raise the budget (tetlod convert --memory, Python memory_bytes) or lower the brick size (--brick-log2)");
     }
 
     // ---- pass 2 ----
