@@ -79,6 +79,7 @@ ModelStats measure_model(const LodModel& model, const std::string& name, const S
     s.updates = model.updates;
     s.build_seconds = model.build_seconds;
     s.from_container = model.from_container;
+    s.field_error = model.field_error;
     s.tets_per_split = model.tets_per_split;
     const double span = model.range[1] - model.range[0];
     s.isovalues = opt.isovalues;
@@ -165,6 +166,7 @@ nlohmann::json stats_json(const std::vector<ModelStats>& models) {
             j["stored_bytes_per_point"] = double(s.stored_bytes) / double(s.grid_points);
         }
         if (s.tets_per_split) j["tets_per_split"] = *s.tets_per_split;
+        j["field_max_error"] = s.field_error;
         a.push_back(j);
     }
     return a;
@@ -184,6 +186,10 @@ std::string stats_text(const std::vector<ModelStats>& models) {
         else
             o << "  storage      in memory " << fmt("%.2f", double(s.memory_bytes) / double(s.grid_points))
               << " bytes/point\n";
+        if (s.field_error > 0)
+            // Why the rows below it repeat the full mesh: the finest tets state it.
+            o << "  lossy field  every sample within " << format_number(s.field_error)
+              << " of the original; thresholds below it give the full mesh\n";
         o << "  full mesh    " << s.full_tets << " tets, " << s.full_vertices << " vertices ("
           << format_seconds(s.full_seconds) << ")\n";
         if (s.tets_per_split) o << "  tets added per vertex split: " << fmt("%.2f", *s.tets_per_split) << "\n";

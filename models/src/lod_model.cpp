@@ -52,6 +52,7 @@ LodModel make_lod_model(std::shared_ptr<const HtModel> ht) {
     m.updates = uint64_t(m.dims.count()) - 8;
     m.ht_k = ht->domain().k;
     m.ht_padded = ht->domain().padded;
+    m.field_error = ht->field_error_bound();
     m.ht = std::move(ht);
     return m;
 }
@@ -65,6 +66,7 @@ LodModel make_lod_model(std::shared_ptr<const MtModel> mt) {
                      mt->updates().size() * sizeof(MtSplit) + mt->mask_bits().size() * 8;
     m.updates = mt->updates().size();
     m.mt_base_tets = mt->base_tets().size();
+    m.field_error = mt->field_error_bound();
     m.mt = std::move(mt);
     return m;
 }

@@ -170,3 +170,37 @@ TEST(LossyCli, BothModelsOverTheLossyField) {
     const CliRun v = run("verify --deep '" + path + "' --original '" + raw + "' --dims 17,17,17 --dtype u8");
     EXPECT_EQ(v.code, 0) << v.out << v.err;
 }
+
+TEST(LossyCli, StatsStatesTheFieldBoundOfBothModels) {
+    // stats on a lossy container says why thresholds below E repeat the full
+    // mesh, for each model it holds; on a lossless one it says nothing of it.
+    const std::string raw = sample_raw();
+    const std::string path = converted(raw, "lossy_stats", "--max-error 3 --model ht,mt");
+    const CliRun t = run("stats '" + path + "'");
+    ASSERT_EQ(t.code, 0) << t.err;
+    const std::string line = "lossy field  every sample within 3 of the original";
+    const std::size_t first = t.out.find(line);
+    ASSERT_NE(first, std::string::npos) << t.out;
+    EXPECT_NE(t.out.find(line, first + 1), std::string::npos) << "one line per model\n" << t.out;
+    const CliRun j = run("stats --json '" + path + "'");
+    ASSERT_EQ(j.code, 0) << j.err;
+    const auto stats = nlohmann::json::parse(j.out);
+    ASSERT_EQ(stats["models"].size(), 2u);
+    for (const auto& m : stats["models"]) {
+        EXPECT_EQ(m["field_max_error"].get<double>(), 3.0) << m["model"];
+        // Every uniform threshold below E gives the full mesh (17^3 u8: 0.1 % .. 1 % of 255).
+        int below = 0;
+        for (const auto& row : m["uniform"])
+            if (row["error"].get<double>() < 3.0) {
+                ++below;
+                EXPECT_EQ(row["tets"].get<double>(), m["full"]["tets"].get<double>()) << m["model"];
+            }
+        EXPECT_GE(below, 1) << m["model"];
+    }
+    const CliRun plain = run("stats '" + converted(raw, "lossless_stats", "") + "'");
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    EXPECT_FALSE(contains(plain.out, "lossy field")) << plain.out;
+    EXPECT_EQ(nlohmann::json::parse(run("stats --json '" + tmp("lossless_stats.tlod") + "'").out)["models"][0]
+                  ["field_max_error"].get<double>(),
+              0.0);
+}

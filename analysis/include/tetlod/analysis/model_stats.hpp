@@ -42,6 +42,7 @@ struct ModelStats {
     std::string stored_what;
     double build_seconds = 0;
     bool from_container = false;
+    double field_error = 0;  // LodModel::field_error (lossy container), 0: lossless
     uint64_t full_tets = 0, full_vertices = 0;
     double full_seconds = 0;
     std::optional<double> tets_per_split;

@@ -61,6 +61,10 @@ struct LodModel {
     int ht_k = 0;                       // HT: the cube's side is 2^k
     bool ht_padded = false;             // HT: built on the padded cube
     uint64_t mt_base_tets = 0;          // MT: tets of the base mesh
+    /// A lossy container's field (format 3.1, 3.5 with the MT): every stored
+    /// sample is within this of the original, and the finest tets state it as
+    /// their error, so a threshold below it gives the finest mesh. 0: lossless.
+    double field_error = 0;
 
     uint64_t grid_points() const { return uint64_t(dims.count()); }
     /// The mesh of a selective-refinement query (any thresholds, box, isovalues).
