@@ -92,6 +92,9 @@ void bind_model_class(py::module_& m) {
         .def_readonly("stored_bytes", &LodModel::stored_bytes)
         .def_readonly("build_seconds", &LodModel::build_seconds)
         .def_readonly("from_container", &LodModel::from_container)
+        // A lossy container's bound (every sample within it of the original;
+        // thresholds below it give the full mesh), 0.0 when lossless.
+        .def_readonly("field_max_error", &LodModel::field_error)
         .def(
             "extract",
             [](const LodModel& lm, py::object error, py::object error_out, py::object box,

@@ -178,10 +178,12 @@ def test_lossy_container_states_its_bound_on_every_tet(volume, cli, work):
     assert finest.max_error >= 3.0
     # Below E nothing is coarse enough: the finest mesh, as full=True gives it.
     assert finest.tet_count == tetlod.extract(path, full=True).tet_count
+    assert tetlod.open(path).field_max_error == 3.0
 
 
 def test_lossless_container_has_no_field_error(container):
     assert tetlod.extract(container, error=0).field_max_error == 0.0
+    assert tetlod.open(container).field_max_error == 0.0
 
 
 def test_convert_lossy_with_both_models(volume, work):
@@ -192,6 +194,7 @@ def test_convert_lossy_with_both_models(volume, work):
     assert summary["max_error"] == 5.0  # 2% of 0..255, an integer field states floor(5.1)
     assert tetlod.info(path)["format_version"] == "3.5"
     for model in ("ht", "mt"):
+        assert tetlod.open(path, model=model).field_max_error == 5.0
         mesh = tetlod.extract(path, model=model, error="5%")
         assert mesh.field_max_error == 5.0
         assert float(mesh.error.min()) >= 0.0
