@@ -158,6 +158,12 @@ int run_convert(const ConvertArgs& a) {
             }
         } else if (stage == "encoded HT") {
             encoding.reset();  // erases the bar
+        } else if (stage == "encode MT") {
+            // One step without a count (zstd of the MT's streams, in parallel).
+            if (bar) std::fprintf(stderr, "encoding the MT (zstd of its streams)...\r");
+        } else if (stage == "encoded MT") {
+            if (bar) std::fprintf(stderr, "\r%*s\r", 72, "");
+            detail("encoded the MT in " + format_seconds(sw.seconds()));
         }
     };
     const ContainerWriteSummary written =

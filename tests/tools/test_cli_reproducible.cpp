@@ -97,6 +97,14 @@ TEST(CliProgress, FlagsDecideWhetherBarsAreDrawn) {
     EXPECT_NE(r.err.find("decoding ["), std::string::npos) << r.err;
     r = run("--progress convert '" + d + "/p_33x33x33_uint8.raw' '" + d + "/p2.tlod'");
     EXPECT_NE(r.err.find("encoding ["), std::string::npos) << r.err;
+    // The MT: its build as a percentage, then its encoding (no count).
+    r = run("--progress convert '" + d + "/p_33x33x33_uint8.raw' '" + d + "/p3.tlod' --model ht,mt");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("building the MT ["), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("encoding the MT"), std::string::npos) << r.err;
+    r = run("--no-progress convert '" + d + "/p_33x33x33_uint8.raw' '" + d + "/p3.tlod' --model ht,mt -f");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("encoding the MT"), std::string::npos) << r.err;
     for (const char* off : {"--no-progress", "-q", ""}) {
         r = run(std::string(off) + " decode '" + d + "/p.tlod' '" + d + "/p.raw'");
         ASSERT_EQ(r.code, 0) << r.err;

@@ -71,8 +71,10 @@ struct ContainerWriteOptions {
     /// Called as (stage, done, total) while building and encoding: "build MT"
     /// as the MT's bricks complete (done of total work units, first 0, last
     /// done == total; see MtBuildOptions::progress: from TBB worker threads, one
-    /// call at a time), "built MT", "build HT", "built HT", "encoded HT"
-    /// (done = total = 0), and "encode HT" after each chunk (done of total chunks).
+    /// call at a time), "built MT", "build HT", "built HT", "encoded HT",
+    /// "encode MT" and "encoded MT" (done = total = 0: the MT's streams are
+    /// compressed, some 30 s for 257^3 points), and "encode HT" after each chunk
+    /// (done of total chunks).
     std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
     /// Distributed conversion (tetlod-mpi, the VolumePlanes overload, HT only):
     /// the value range and errors computed by several processes

@@ -193,7 +193,9 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
         if (o.progress) o.progress("built MT", 0, 0);
         tlod::Metadata meta = provenance;
         meta.value_range = tlod::metadata_for_volume(stored).value_range;
+        if (o.progress) o.progress("encode MT", 0, 0);
         encode_mt_container(mt, meta, *best, true, mt_encode_options(o, summary.max_error));
+        if (o.progress) o.progress("encoded MT", 0, 0);
         summary.mt_updates = mt.updates().size();
         summary.mt_base_tets = mt.base_tets().size();
     }
@@ -382,7 +384,9 @@ ContainerWriteSummary write_container(Volume volume, const std::string& path, co
         summary.ht_max_level = model.domain().max_level();
     }
     if (mt) {
+        progress("encode MT", 0, 0);
         encode_mt_container(*mt, meta, w, o.ht, mt_encode_options(o, 0));
+        progress("encoded MT", 0, 0);
         summary.mt_updates = mt->updates().size();
         summary.mt_base_tets = mt->base_tets().size();
     }
