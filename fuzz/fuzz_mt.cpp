@@ -4,7 +4,8 @@
 // bytes), which the harness compresses itself as the header's coding says (coding
 // 1: one frame; otherwise a frame per stream, coding 2) and fixes the two size
 // fields, so mutations reach the stream parser behind the zstd frames. Accepted
-// models are extracted; extraction may refuse with CorruptData, never crash.
+// models are extracted and their stored errors checked (check_mt_bounds, what
+// verify --deep runs); either may refuse with CorruptData, never crash.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -12,6 +13,7 @@
 #include <span>
 #include <vector>
 
+#include "tetlod/analysis/mt_bound_check.hpp"
 #include "tetlod/codecs/mt/mt_codec.hpp"
 #include "tetlod/format/container.hpp"
 
@@ -79,6 +81,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             (void)m->extract(q);
         } catch (const Error&) {
         }
+    }
+    try {
+        (void)check_mt_bounds(*m);
+    } catch (const Error&) {
     }
     return 0;
 }

@@ -2,7 +2,9 @@
 // --deep also recomputes the exact diamond errors from the decoded field and
 // checks that every stored bound is at least the recomputed error. An MT is
 // decoded (labels, dependencies, errors and masks validated) and extracted; with
-// --deep its full mesh must be the reference mesh, 5 tets per cell.
+// --deep a full refinement must end at the reference mesh, 5 tets per cell, and
+// every tet it passes through must have a closed error (recomputed exactly from
+// the decoded field) at most its creator's stored error, minus E when lossy.
 #include <CLI/CLI.hpp>
 
 #include <ostream>
@@ -32,7 +34,13 @@ int run_verify(const VerifyArgs& a) {
     if (rep.mt_ok)
         o << "; MT structure (" << rep.mt_updates << " vertex splits, " << rep.mt_tets_at_error0
           << " tets at error 0)";
-    if (rep.mt_deep_ok) o << "; deep: MT full mesh = reference mesh (" << rep.mt_reference_tets << " tets)";
+    if (rep.mt_deep_ok) {
+        o << "; deep: MT full mesh = reference mesh (" << rep.mt_reference_tets << " tets); all "
+          << rep.mt_bounds_checked << " MT tet bounds >= exact errors (at most " << format_number(rep.mt_worst_bound_ratio)
+          << "x)";
+        if (rep.mt_bounds_unchecked > 0)
+            o << " (" << rep.mt_bounds_unchecked << " tets with non-finite values not checked)";
+    }
     if (rep.ht_ok) o << "; HT structure; field and " << rep.ht_chunks_decoded << " chunks decoded";
     if (rep.ht_deep_ok)
         o << "; deep: all " << rep.ht_bounds_checked << " stored bounds >= exact errors (at most "
@@ -68,8 +76,9 @@ const CommandRegistration verify_registration{Command{
         auto a = std::make_shared<VerifyArgs>();
         sub.add_option("input", a->input, "Input .tlod file")->required();
         sub.add_flag("--deep", a->deep,
-                     "Also recompute every diamond error from the field and check the stored "
-                     "bounds hold");
+                     "Also recompute the exact errors from the field and check the stored bounds "
+                     "hold: every HT diamond's; for the MT, every tet of a full refinement against "
+                     "its creator's update error (plus E when lossy)");
         sub.add_option("--original", a->original,
                        "The original volume: check every stored sample is within the container's "
                        "stated bound of it (lossy: E; lossless: bit-identical)");

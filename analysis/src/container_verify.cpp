@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "tetlod/analysis/mt_bound_check.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
@@ -24,6 +25,20 @@ std::string number_text(double v) {
     return b;
 }
 
+/// Enough digits to show a float bound and an exact error apart.
+std::string precise_text(double v) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char b[40];
+    std::snprintf(b, sizeof b, "%.9g", v);
+    return b;
+}
+
+std::string point_text(uint32_t g, const Dims& d) {
+    const int64_t i = g;
+    return "(" + std::to_string(i % d.x) + "," + std::to_string(i / d.x % d.y) + "," +
+           std::to_string(i / (d.x * d.y)) + ")";
+}
+
 // Throws tetlod::Error for a failed Expected (turned into the report's failure).
 template <class T>
 T take(Expected<T> e) {
@@ -32,6 +47,9 @@ T take(Expected<T> e) {
 
 void verify_mt(const std::string& path, bool deep, VerifyReport& rep) {
     auto r = take(tlod::ContainerReader::open(path));
+    // A LOSSY_MT file's E: its update errors must include it (spec §5.1).
+    double field_error = 0;
+    if (r.header().required_features & tlod::kFeatureHt) field_error = take(read_ht_layout(r)).max_error;
     const MtModel mt = take(decode_mt_container(r));
     LodQuery q;
     q.error_in = 0.0;
@@ -40,15 +58,40 @@ void verify_mt(const std::string& path, bool deep, VerifyReport& rep) {
     rep.mt_tets_at_error0 = m0.tet_count();
     rep.mt_ok = true;
     if (!deep) return;
-    LodQuery full;
-    full.full = true;
+    // One full refinement: its final mesh must be the reference mesh, and every tet
+    // on the way must honour its creator's stored error (spec/mt-model.md §M4).
+    const MtBoundCheck b = check_mt_bounds(mt, field_error);
     const Dims dd = mt.field().dims;
     const uint64_t want = 5 * uint64_t(dd.x - 1) * uint64_t(dd.y - 1) * uint64_t(dd.z - 1);
-    const uint64_t got = mt.extract(full).tet_count();
+    const uint64_t got = b.full_mesh_tets;
     if (got != want)
         throw Error(ErrorCode::CorruptData, path + ": the MT's full mesh has " + std::to_string(got) +
                                                 " tets, the reference mesh " + std::to_string(want));
     rep.mt_reference_tets = want;
+    if (!b.ok()) {
+        const MtBoundViolation& v = *b.first;
+        std::string what;
+        if (v.creator == MtVisitedTet::kNone) {
+            what = "a reference tet (no creator, bound 0)";
+        } else {
+            what = "the update at " + point_text(v.creator, dd) + " label " + std::to_string(v.label) +
+                   " (inserting " + point_text(v.inserts, dd) + ")";
+        }
+        std::string tet;
+        for (int i = 0; i < 4; ++i) tet += (i ? " " : "") + point_text(v.tet[i], dd);
+        throw Error(ErrorCode::CorruptData,
+                    path + ": " + std::to_string(b.violations) +
+                        " MT tets have a closed error above their creator's stored error (first: " + what +
+                        ", tet " + tet + ": stored " + precise_text(v.stored) + ", exact " +
+                        precise_text(v.exact) +
+                        (field_error > 0 && v.creator != MtVisitedTet::kNone
+                             ? " + E " + precise_text(field_error) + " (the file is lossy)"
+                             : std::string()) +
+                        ", largest at " + point_text(v.at, dd) + ")");
+    }
+    rep.mt_bounds_checked = b.tets_checked;
+    rep.mt_bounds_unchecked = b.nonfinite_tets;
+    rep.mt_worst_bound_ratio = b.worst_ratio;
     rep.mt_deep_ok = true;
 }
 

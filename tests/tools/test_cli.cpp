@@ -144,3 +144,22 @@ TEST(Cli, Demo) {
         EXPECT_TRUE(fs::exists(fs::path(dir) / f)) << f;
     EXPECT_TRUE(contains(r.out, "paraview")) << r.out;
 }
+
+// verify --deep on both models: the MT's line says how many tet bounds it checked
+// against exact errors (issue 13), in the HT's deep line's style; plain verify
+// keeps its text.
+TEST(Cli, VerifyDeepChecksTheMtBounds) {
+    const std::string raw = tmp("verify_ml.raw"), path = tmp("verify_both.tlod");
+    ASSERT_EQ(run("sample marschner-lobb '" + raw + "' --size 13").code, 0);
+    const CliRun c = run("convert '" + raw + "' '" + path + "' --dims 13,13,13 --dtype u8 --model ht,mt");
+    ASSERT_EQ(c.code, 0) << c.err;
+    const CliRun d = run("verify '" + path + "' --deep");
+    ASSERT_EQ(d.code, 0) << d.err;
+    EXPECT_TRUE(contains(d.out, "; deep: MT full mesh = reference mesh (8640 tets); all ")) << d.out;
+    EXPECT_TRUE(contains(d.out, " MT tet bounds >= exact errors (at most ")) << d.out;
+    EXPECT_TRUE(contains(d.out, "; deep: all ")) << d.out;  // the HT's, as before
+    const CliRun p = run("verify '" + path + "'");
+    ASSERT_EQ(p.code, 0) << p.err;
+    EXPECT_FALSE(contains(p.out, "deep")) << p.out;
+    EXPECT_TRUE(contains(p.out, "; MT structure (")) << p.out;
+}

@@ -169,6 +169,8 @@ TEST(LossyCli, BothModelsOverTheLossyField) {
     EXPECT_TRUE(contains(below.err, "is lossy (every sample within 3 of the original)")) << below.err;
     const CliRun v = run("verify --deep '" + path + "' --original '" + raw + "' --dims 17,17,17 --dtype u8");
     EXPECT_EQ(v.code, 0) << v.out << v.err;
+    // The MT's update errors checked against exact errors on the stored field plus E.
+    EXPECT_TRUE(contains(v.out, " MT tet bounds >= exact errors (at most ")) << v.out;
 }
 
 TEST(LossyCli, StatsStatesTheFieldBoundOfBothModels) {

@@ -42,6 +42,7 @@
 #include "tetlod/analysis/lossy_check.hpp"
 #include "tetlod/analysis/lod_deviation.hpp"
 #include "tetlod/analysis/mesh_resample.hpp"
+#include "tetlod/analysis/mt_bound_check.hpp"
 #include "tetlod/analysis/model_stats.hpp"
 #include "tetlod/analysis/shape_quality.hpp"
 #include "tetlod/analysis/stopwatch.hpp"

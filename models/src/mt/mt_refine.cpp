@@ -7,8 +7,11 @@
 // minimal closed set of splits whose front satisfies the query.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <queue>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "../query/lod_query_region.hpp"
 #include "mt_slot_map.hpp"
@@ -25,8 +28,22 @@ namespace {
 [[noreturn]] void corrupt(const std::string& what) {
     throw Error(ErrorCode::CorruptData, "MT extraction: inconsistent model (" + what + ")");
 }
+
+/// extract's observer: reports nothing, compiled away.
+struct NoObserver {
+    static constexpr bool active = false;
+};
+
+/// extract_visiting's observer: one call per batch (the base mesh, then each split).
+struct BatchObserver {
+    static constexpr bool active = true;
+    const std::function<void(std::span<const MtVisitedTet>)>& visit;
+    std::vector<MtVisitedTet> batch;  // the batch being reported
+    void operator()() const { visit(std::span<const MtVisitedTet>(batch)); }
+};
 }  // namespace
 
+template <class Observer>
 struct MtRefiner {
     /// A grid point that is a vertex of the current mesh. Only these have state, so a
     /// query's memory follows the mesh it visits, not the volume (docs/mt.md §6).
@@ -52,10 +69,11 @@ struct MtRefiner {
     // (label, grid index, slot): ties between equal labels break by grid index.
     std::priority_queue<std::array<uint32_t, 3>> heap;
     MtExtractStats st;
+    Observer observe;
 
-    MtRefiner(const MtModel& model, const LodQuery& query)
+    MtRefiner(const MtModel& model, const LodQuery& query, Observer observer)
         : m(model), q(query), grid(model.dims()), n(uint32_t(model.dims().count())),
-          bounds(detail::query_bounds(query)), slot_of(4 * model.base_tets().size()) {}
+          bounds(detail::query_bounds(query)), slot_of(4 * model.base_tets().size()), observe(observer) {}
 
     uint32_t updates_of(uint32_t g) const { return m.csr_start_[g + 1] - m.csr_start_[g]; }
     uint32_t current_update(uint32_t v) const { return m.csr_start_[verts[v].grid] + verts[v].pos - 1; }
@@ -108,6 +126,23 @@ struct MtRefiner {
     double bound(const std::array<uint32_t, 4>& t, double err) const {
         if (!bounds.region) return bounds.in;  // spares the corners' coordinates
         return detail::query_bound(q, bounds, pts_of(t), [&](int i) { return m.field_.value(t[i]); }, err);
+    }
+
+    /// Hands tets [ids] with their creators to the observer, as one batch (observed
+    /// refinements only: instantiated under `if constexpr (Observer::active)`).
+    template <class Ids>
+    void report(const Ids& ids) {
+        observe.batch.clear();
+        for (const uint32_t t : ids) {
+            MtVisitedTet x;
+            x.tet = tv[t];
+            if (const uint32_t c = creator(ts[t]); c != kNil) {
+                x.creator = verts[c].grid;
+                x.update = current_update(c);
+            }
+            observe.batch.push_back(x);
+        }
+        observe();
     }
 
     void want_split(uint32_t v) { heap.push({verts[v].label, verts[v].grid, v}); }
@@ -208,6 +243,7 @@ struct MtRefiner {
         set_node(sv, verts[sv].pos - 1);
         if (verts[wv].label >= u.label || verts[sv].label >= u.label) corrupt("child label not below parent");
         for (uint32_t t : touched) check(t);
+        if constexpr (Observer::active) report(touched);
     }
 
     TetMesh run() {
@@ -223,6 +259,11 @@ struct MtRefiner {
                 link_corner(v, 4 * t + j);
             }
         for (uint32_t t = 0; t < tv.size(); ++t) check(t);
+        if constexpr (Observer::active) {
+            std::vector<uint32_t> all(tv.size());
+            for (uint32_t t = 0; t < all.size(); ++t) all[t] = t;
+            report(all);
+        }
         uint64_t pops = 0;
         const uint64_t max_pops = 64 * (uint64_t(m.splits_.size()) + 16) * 8;
         while (!heap.empty()) {
@@ -293,7 +334,18 @@ struct MtRefiner {
 
 TetMesh MtModel::extract(const LodQuery& query, MtExtractStats* stats) const {
     detail::check_query(query);
-    MtRefiner r(*this, query);
+    MtRefiner<NoObserver> r(*this, query, NoObserver{});
+    TetMesh mesh = r.run();
+    if (stats) *stats = r.st;
+    return mesh;
+}
+
+TetMesh MtModel::extract_visiting(const LodQuery& query,
+                                  const std::function<void(std::span<const MtVisitedTet>)>& visit,
+                                  MtExtractStats* stats) const {
+    detail::check_query(query);
+    if (!visit) throw Error(ErrorCode::InvalidArgument, "MT extract_visiting: no visitor");
+    MtRefiner<BatchObserver> r(*this, query, BatchObserver{visit, {}});
     TetMesh mesh = r.run();
     if (stats) *stats = r.st;
     return mesh;

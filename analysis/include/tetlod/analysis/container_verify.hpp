@@ -3,8 +3,11 @@
 // structural rule; the MT decoded (labels, dependencies, errors and masks
 // validated) and extracted; the HT decoded whole. Deep verification also
 // recomputes every exact diamond error from the decoded field and checks that
-// each stored bound is at least it, and that the MT's full mesh is the
-// reference mesh (5 tets per cell).
+// each stored bound is at least it; for the MT it runs a full refinement, checks
+// that its final mesh is the reference mesh (5 tets per cell) and that every tet
+// on the way has a closed error (exact, recomputed from the decoded field by
+// brute force, mt_bound_check.hpp) no larger than its creator's stored error,
+// plus E in a lossy (LOSSY_MT) file (spec/mt-model.md §M4, spec §5.1).
 //
 // Safe on untrusted files: every problem becomes the report's `failure`
 // (naming the file), never a crash; the only exception that escapes is
@@ -27,8 +30,11 @@ struct VerifyReport {
 
     bool mt_ok = false;              // MT decoded and extracted at error 0
     uint64_t mt_updates = 0, mt_tets_at_error0 = 0;
-    bool mt_deep_ok = false;         // deep: full mesh = reference mesh
+    bool mt_deep_ok = false;         // deep: full mesh = reference mesh, every stored error holds
     uint64_t mt_reference_tets = 0;
+    uint64_t mt_bounds_checked = 0;  // deep: tets of the full refinement compared with their bound
+    uint64_t mt_bounds_unchecked = 0;  // deep: of a float field, tets with a non-finite value (skipped)
+    double mt_worst_bound_ratio = 1;   // largest stored / (exact + E) over tets with exact + E > 0
 
     bool ht_ok = false;              // HT decoded: field and every chunk
     uint64_t ht_chunks_decoded = 0;

@@ -97,6 +97,14 @@ struct MtHistory {
     std::vector<uint32_t> update_of_node;  // node n + k (collapse k) -> its index in MtModel::updates()
 };
 
+/// A tet of a mesh that a refinement passes through (MtModel::extract_visiting).
+struct MtVisitedTet {
+    static constexpr uint32_t kNone = 0xFFFFFFFFu;
+    std::array<uint32_t, 4> tet{};  // grid indices, positively oriented
+    uint32_t creator = kNone;       // grid index of its creator (spec/mt-model.md §M4); kNone: a reference tet
+    uint32_t update = kNone;        // the creator's current update, updates()[update]; kNone for a reference tet
+};
+
 struct MtExtractStats {
     double max_error = 0.0;      // largest bound among output tets
     uint64_t splits = 0;         // vertex splits performed
@@ -152,6 +160,18 @@ public:
     /// CorruptData when a decoded model turns out inconsistent.
     TetMesh extract(const LodQuery& query, MtExtractStats* stats = nullptr) const;
 
+    /// extract, reporting every tet of every mesh the refinement passes through,
+    /// each once: `visit` gets the base mesh's tets, then, after each split, the
+    /// d + |E| tets it created (spec/mt-model.md §M5), in split order. A tet's
+    /// creator never changes while it exists (a vertex's label changes only when
+    /// it splits, which removes its star), so this is every (tet, creator) pair
+    /// reachable on the way; with `query.full`, every tet of a full refinement.
+    /// For checkers (tetlod verify --deep); extract itself does no reporting (a
+    /// separate instantiation of the refinement, so its speed is unchanged).
+    TetMesh extract_visiting(const LodQuery& query,
+                             const std::function<void(std::span<const MtVisitedTet>)>& visit,
+                             MtExtractStats* stats = nullptr) const;
+
     std::array<double, 2> value_range() const { return range_; }
 
     /// The bound against the original of a reference tet (created by no update,
@@ -189,6 +209,7 @@ private:
     std::array<double, 2> range_{0, 0};
     std::vector<MtHistory> history_;  // 0 or 1 element
 
+    template <class Observer>
     friend struct MtRefiner;
 };
 
