@@ -53,6 +53,12 @@ struct MtRefiner {
         uint32_t pos = 0;         // updates of the grid point applied to it, counted from the root
         uint32_t label = 0;       // label of its current node (0: a leaf)
         uint32_t wanted = 0;      // label at which a bound failure asked for its split
+        // An entry of its current label is in the heap. Without it every failing tet of
+        // a star pushed its creator again (a star has ~25 tets): most of an extraction's
+        // time went to pushing and popping those duplicates, which change nothing (equal
+        // keys, and the first one popped either splits the vertex, making the rest stale,
+        // or puts it back).
+        bool queued = false;
     };
 
     const MtModel& m;
@@ -81,6 +87,7 @@ struct MtRefiner {
         Vertex& x = verts[v];
         x.pos = npos;
         x.label = npos == 0 ? 0 : m.splits_[m.csr_start_[x.grid] + npos - 1].label;
+        x.queued = false;  // an entry of the old label is stale
     }
     uint32_t add_vertex(uint32_t g) {
         const uint32_t v = uint32_t(verts.size());
@@ -145,7 +152,11 @@ struct MtRefiner {
         observe();
     }
 
-    void want_split(uint32_t v) { heap.push({verts[v].label, verts[v].grid, v}); }
+    void want_split(uint32_t v) {
+        if (verts[v].queued) return;
+        verts[v].queued = true;
+        heap.push({verts[v].label, verts[v].grid, v});
+    }
 
     void check(uint32_t t) {
         ++st.visited_tets;
@@ -270,6 +281,7 @@ struct MtRefiner {
             if (++pops > max_pops) corrupt("refinement does not terminate");
             const auto [lab, g, p] = heap.top();
             heap.pop();
+            if (verts[p].label == lab) verts[p].queued = false;  // this was its entry
             if (verts[p].head == kNil || verts[p].label != lab || lab == 0) continue;
             star.clear();
             bool blocked = false;
@@ -284,7 +296,7 @@ struct MtRefiner {
                 }
             }
             if (blocked) {
-                heap.push({lab, g, p});
+                want_split(p);
                 continue;
             }
             split(p);
