@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "support/mesh_checker.hpp"
+#include "support/mt_beside_ht.hpp"
 #include "support/volume_generators.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
@@ -343,19 +344,10 @@ TEST(Lossy, MtErrorsBelowTheFieldsBoundRefused) {
     ASSERT_EQ(info.max_error, 3.0);
     const Volume stored = decode_container(ht_only).take();
     const MtModel mt = MtModel::build(stored);
+    // (MtModel::build copies the stored field: its metadata is the stored volume's.)
     auto build = [&](double field_error, const std::string& name) {
-        auto r = tlod::ContainerReader::open(ht_only).take();
-        tlod::ContainerWriter w;
-        w.set_features(r.header().required_features & ~tlod::kFeatureCompactTable);
-        for (std::size_t i = 0; i < r.sections().size(); ++i) {
-            const tlod::SectionInfo s = r.sections()[i];
-            w.add_stored(s.type, s.flags, s.arg0, s.arg1, r.read_stored(i).take(), s.raw_size);
-        }
-        MtEncodeOptions eo;
-        eo.field_error = field_error;
-        encode_mt_container(mt, tlod::metadata_for_volume(stored), w, true, eo);
         const std::string out = tmp(name);
-        w.write(out);
+        test::write_mt_beside_ht(ht_only, mt, field_error, out);
         return out;
     };
     const std::string honest = build(3, "lossy_mt_honest.tlod");

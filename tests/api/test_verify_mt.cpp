@@ -14,6 +14,7 @@
 #include <string>
 
 #include "support/mesh_checker.hpp"
+#include "support/mt_beside_ht.hpp"
 #include "support/volume_generators.hpp"
 #include "tetlod/codecs/mt/mt_container.hpp"
 #include "tetlod/format/container.hpp"
@@ -54,18 +55,8 @@ MtModel with_errors(const MtModel& mt, const std::function<float(size_t, float)>
 /// The HT-only container `ht_only` with `mt` added beside its HT (field_error: the
 /// E the encoder adds to every update error; 0 for a lossless file).
 std::string with_mt(const std::string& ht_only, const MtModel& mt, double field_error, const std::string& name) {
-    auto r = tlod::ContainerReader::open(ht_only).take();
-    tlod::ContainerWriter w;
-    w.set_features(r.header().required_features & ~tlod::kFeatureCompactTable);
-    for (std::size_t i = 0; i < r.sections().size(); ++i) {
-        const tlod::SectionInfo s = r.sections()[i];
-        w.add_stored(s.type, s.flags, s.arg0, s.arg1, r.read_stored(i).take(), s.raw_size);
-    }
-    MtEncodeOptions eo;
-    eo.field_error = field_error;
-    encode_mt_container(mt, tlod::metadata_for_volume(mt.field()), w, true, eo);
     const std::string out = tmp(name);
-    w.write(out);
+    test::write_mt_beside_ht(ht_only, mt, field_error, out);
     return out;
 }
 
