@@ -143,6 +143,13 @@ struct BrickDecimator {
     const std::atomic<bool>* spare_threads = nullptr;
     bool parallel_points() const { return spare_threads && spare_threads->load(std::memory_order_relaxed); }
     static constexpr size_t kParallelPoints = 128, kPointGrain = 64;
+    /// A target's walk over the star's points runs its first kSequentialPoints on the
+    /// evaluating thread, and only the rest, if the walk gets that far, on the arena's
+    /// threads: most walks end at one of their first points (a cost over the cutoff or
+    /// a point outside the new tets), and a parallel walk computes all its chunks before
+    /// it knows. Walking every star of at least kParallelPoints in parallel made bucky
+    /// 128^3's last pass (one brick) 11 % slower on 2 threads than on 1.
+    static constexpr size_t kSequentialPoints = 1024;
     std::vector<double> point_dev;
 
     // Scratch.
@@ -735,8 +742,9 @@ struct BrickDecimator {
         return deviation(sample(p), t, d, det, exact);
     }
 
-    /// The walk of evaluate's target loop over the gathered points, on the arena's
-    /// threads: locate each point in the target's new tets and take its deviation;
+    /// The rest of evaluate's target walk, from point `from` on (the points before it
+    /// were walked on this thread without ending the walk), on the arena's threads:
+    /// locate each point in the target's new tets and take its deviation;
     /// the walk ends at the first point that no new tet holds (ok = false) or whose
     /// deviation is over the limit (over = true, cost = the maximum up to it). Same
     /// answer as the sequential loop: over_limit is monotone and the cost so far was
@@ -744,13 +752,13 @@ struct BrickDecimator {
     /// whose own deviation does. Points after the end may be computed, never used
     /// (located[] is read only when the walk got through every point).
     template <class OverLimit>
-    void walk_points_in_parallel(const OverLimit& over_limit, double& cost, bool& ok, bool& over) {
-        ++st.parallel_walks;
+    void walk_points_in_parallel(size_t from, const OverLimit& over_limit, double& cost, bool& ok, bool& over) {
+        ++st.parallel_walks, ++st.parallel_targets;
         for (size_t j = 0; j < ntv.size(); ++j) bary(j);  // every numerator now: the walk only reads
         point_dev.resize(pts.size());
         std::atomic<size_t> first_end{pts.size()};
         tbb::parallel_for(
-            tbb::blocked_range<size_t>(0, pts.size(), kPointGrain),
+            tbb::blocked_range<size_t>(from, pts.size(), kPointGrain),
             [&](const tbb::blocked_range<size_t>& r) {
                 std::array<int64_t, 4> d;
                 for (size_t i = r.begin(); i < r.end(); ++i) {
@@ -768,8 +776,8 @@ struct BrickDecimator {
             },
             tbb::simple_partitioner());
         const size_t end = first_end.load();
-        for (size_t i = 0; i < end; ++i) cost = std::max(cost, point_dev[i]);
-        st.located += end == pts.size() ? end : end + 1;
+        for (size_t i = from; i < end; ++i) cost = std::max(cost, point_dev[i]);
+        st.located += (end == pts.size() ? end : end + 1) - from;
         if (end == pts.size()) return;
         if (located[end] < 0) ok = false;
         else cost = std::max(cost, point_dev[end]), over = true;
@@ -885,9 +893,9 @@ struct BrickDecimator {
                 bool ok = true, over = false;
                 std::array<int64_t, 4> d;
                 located.resize(pts.size());
-                if (pts.size() >= kParallelPoints && parallel_points()) {
-                    walk_points_in_parallel(over_limit, cost, ok, over);
-                } else for (size_t i = 0; i < pts.size(); ++i) {
+                const bool split_walk = pts.size() >= kSequentialPoints + kParallelPoints && parallel_points();
+                const size_t walked_here = split_walk ? kSequentialPoints : pts.size();
+                for (size_t i = 0; i < walked_here; ++i) {
                     const int guess = pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
                     const int j = locate(pts[i], guess, d);
                     located[i] = j;
@@ -902,6 +910,7 @@ struct BrickDecimator {
                         break;
                     }
                 }
+                if (split_walk && ok && !over) walk_points_in_parallel(walked_here, over_limit, cost, ok, over);
                 if (!ok) continue;
                 if (over) {
                     if (!best.ok) cut = true, lower = std::min(lower, cost);
