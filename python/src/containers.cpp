@@ -1,5 +1,6 @@
 // .tlod containers from Python: what one holds (info, models), writing one from
-// a volume file (convert), and decoding its volume back (decode).
+// a volume file (convert), decoding its volume back (decode), and checking it
+// (verify).
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -7,6 +8,7 @@
 
 #include "bindings.hpp"
 #include "common.hpp"
+#include "tetlod/analysis/container_verify.hpp"
 #include "tetlod/codecs/lossy_field.hpp"
 #include "tetlod/container.hpp"
 #include "tetlod/converters/volume_formats.hpp"
@@ -17,6 +19,56 @@ namespace py = pybind11;
 
 namespace tetlod::python {
 namespace {
+
+/// The report of `tetlod verify` as a dict. A stage's flag (checksums_ok, mt/ht "ok",
+/// "deep_ok") is True only when it ran and passed; `failure` is the first problem, and
+/// no stage after it ran. The deep keys are there only when deep checks were asked for.
+py::dict verify_dict(const VerifyReport& r, bool deep) {
+    py::dict d;
+    d["path"] = r.path;
+    d["ok"] = r.ok();
+    d["deep"] = deep;
+    d["failure"] = py::none();
+    if (r.failure) {
+        py::dict f;
+        f["code"] = error_code_name(r.failure->code);
+        f["message"] = r.failure->message;
+        d["failure"] = f;
+    }
+    d["checksums_ok"] = r.checksums_ok;
+    d["sections"] = r.sections;
+    py::list models;
+    if (r.has_ht) models.append("ht");
+    if (r.has_mt) models.append("mt");
+    d["models"] = models;
+    d["max_error"] = r.max_error;
+    if (r.has_mt) {
+        py::dict mt;
+        mt["ok"] = r.mt_ok;
+        mt["updates"] = r.mt_updates;
+        mt["tets_at_error0"] = r.mt_tets_at_error0;
+        if (deep) {
+            mt["deep_ok"] = r.mt_deep_ok;
+            mt["reference_tets"] = r.mt_reference_tets;
+            mt["bounds_checked"] = r.mt_bounds_checked;
+            mt["bounds_unchecked"] = r.mt_bounds_unchecked;
+            mt["worst_bound_ratio"] = r.mt_worst_bound_ratio;
+        }
+        d["mt"] = mt;
+    }
+    if (r.has_ht) {
+        py::dict ht;
+        ht["ok"] = r.ht_ok;
+        ht["chunks_decoded"] = r.ht_chunks_decoded;
+        if (deep) {
+            ht["deep_ok"] = r.ht_deep_ok;
+            ht["bounds_checked"] = r.ht_bounds_checked;
+            ht["worst_bound_ratio"] = r.ht_worst_bound_ratio;
+        }
+        d["ht"] = ht;
+    }
+    return d;
+}
 
 py::dict info_dict(const ContainerInfo& info) {
     py::dict d;
@@ -164,6 +216,24 @@ void bind_containers(py::module_& m) {
             return volume_array(std::move(volume));
         },
         py::arg("path"), "The volume a container stores (bit-exact), as a numpy array [z, y, x].");
+    m.def(
+        "verify",
+        [](const std::string& path, bool deep) {
+            const VerifyReport report = [&] {
+                py::gil_scoped_release release;
+                return verify_container(path, deep);
+            }();
+            return verify_dict(report, deep);
+        },
+        py::arg("path"), py::arg("deep") = false,
+        "Checks a container as `tetlod verify` does: every checksum and structural rule, each "
+        "model decoded (the MT also extracted). deep=True also recomputes every stored error "
+        "bound from the decoded field by brute force (the HT's diamonds, every tet of a full MT "
+        "refinement) and checks each bound holds, plus E in a lossy file. Returns a report dict; "
+        "a bad file is not an exception: report['ok'] is False and report['failure'] "
+        "({'code', 'message'}, naming the file) is the first problem; no stage after it ran, "
+        "and each stage's flag (checksums_ok, ['mt']['ok'], ['ht']['deep_ok'], ...) says "
+        "whether it ran and passed.");
 }
 
 }  // namespace tetlod::python

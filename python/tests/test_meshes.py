@@ -234,3 +234,41 @@ def test_convert_streams_the_ht_within_a_memory_budget(work, monkeypatch):
     bound = np.floor((original.max() - original.min()) / 100)
     assert tetlod.convert(source, lossy, max_error="1%", memory_bytes=64 << 20)["max_error"] == bound
     assert np.abs(tetlod.decode(lossy).astype(np.int64) - original).max() <= bound
+
+
+def test_verify_reports_each_check_and_the_first_problem(work):
+    # tetlod.verify is `tetlod verify` as a report: a sound file passes every
+    # stage (deep: every stored bound recomputed), a damaged one names the
+    # file and its problem, a missing one too; neither raises.
+    array = tetlod.sample_volume("multiscale", (13, 11, 9), "u8")
+    source = str(work / "verify_src.nrrd")
+    tetlod.write_volume(array, source)
+    both = str(work / "verify_both.tlod")
+    tetlod.convert(source, both, ht=True, mt=True)
+    shallow = tetlod.verify(both)
+    assert shallow["ok"] and shallow["failure"] is None and not shallow["deep"]
+    assert shallow["checksums_ok"] and shallow["models"] == ["ht", "mt"]
+    assert shallow["mt"]["ok"] and shallow["mt"]["updates"] > 0 and "deep_ok" not in shallow["mt"]
+    assert shallow["ht"]["ok"] and "deep_ok" not in shallow["ht"]
+    deep = tetlod.verify(both, deep=True)
+    assert deep["ok"] and deep["deep"]
+    assert deep["mt"]["deep_ok"] and deep["mt"]["bounds_checked"] > deep["mt"]["updates"]
+    assert deep["mt"]["worst_bound_ratio"] >= 1
+    assert deep["ht"]["deep_ok"] and deep["ht"]["bounds_checked"] > 0
+    # Lossy: the report states E, and the deep checks hold against it.
+    lossy = str(work / "verify_lossy.tlod")
+    tetlod.convert(source, lossy, ht=True, mt=True, max_error=3)
+    report = tetlod.verify(lossy, deep=True)
+    assert report["ok"] and report["max_error"] == 3 and report["mt"]["deep_ok"]
+    # One byte flipped in the middle of the file: a checksum names it.
+    with open(both, "rb") as f:
+        data = bytearray(f.read())
+    data[len(data) // 2] ^= 0x40
+    damaged = str(work / "verify_damaged.tlod")
+    with open(damaged, "wb") as f:
+        f.write(bytes(data))
+    bad = tetlod.verify(damaged, deep=True)
+    assert not bad["ok"] and not bad["checksums_ok"]
+    assert bad["failure"]["code"] and "verify_damaged.tlod" in bad["failure"]["message"]
+    missing = tetlod.verify(str(work / "no_such.tlod"))
+    assert not missing["ok"] and "no_such.tlod" in missing["failure"]["message"]
