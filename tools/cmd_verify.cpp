@@ -1,6 +1,7 @@
 // tetlod verify: every checksum and structural rule of a .tlod container;
-// --deep also recomputes the exact diamond errors from the decoded field and
-// checks that every stored bound is at least the recomputed error. An MT is
+// --deep also recomputes, by brute force from the decoded field, the exact closed
+// error of every HT tet in the data box and checks that its diamond's bound is at
+// least that error plus E (lossy), and +inf where a tet crosses the box. An MT is
 // decoded (labels, dependencies, errors and masks validated) and extracted; with
 // --deep a full refinement must end at the reference mesh, 5 tets per cell, and
 // every tet it passes through must have a closed error (recomputed exactly from
@@ -43,8 +44,12 @@ int run_verify(const VerifyArgs& a) {
     }
     if (rep.ht_ok) o << "; HT structure; field and " << rep.ht_chunks_decoded << " chunks decoded";
     if (rep.ht_deep_ok)
-        o << "; deep: all " << rep.ht_bounds_checked << " stored bounds >= exact errors (at most "
+    {
+        o << "; deep: all " << rep.ht_bounds_checked << " HT tet bounds >= exact errors (at most "
           << format_number(rep.ht_worst_bound_ratio) << "x)";
+        if (rep.ht_bounds_unchecked > 0)
+            o << " (" << rep.ht_bounds_unchecked << " tets with non-finite values not checked)";
+    }
     if (rep.ht_ok && rep.max_error > 0)
         o << "; lossy: every sample within " << format_max_error(rep.max_error) << " of the original (stated)";
     if (rep.failure) throw Error(rep.failure->code, rep.failure->message);
@@ -77,8 +82,9 @@ const CommandRegistration verify_registration{Command{
         sub.add_option("input", a->input, "Input .tlod file")->required();
         sub.add_flag("--deep", a->deep,
                      "Also recompute the exact errors from the field and check the stored bounds "
-                     "hold: every HT diamond's; for the MT, every tet of a full refinement against "
-                     "its creator's update error (plus E when lossy)");
+                     "hold (plus E when lossy): for the HT, every tet of the hierarchy in the data box "
+                     "against its diamond's bound; for the MT, every tet of a full refinement against "
+                     "its creator's update error");
         sub.add_option("--original", a->original,
                        "The original volume: check every stored sample is within the container's "
                        "stated bound of it (lossy: E; lossless: bit-identical)");

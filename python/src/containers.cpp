@@ -63,6 +63,7 @@ py::dict verify_dict(const VerifyReport& r, bool deep) {
         if (deep) {
             ht["deep_ok"] = r.ht_deep_ok;
             ht["bounds_checked"] = r.ht_bounds_checked;
+            ht["bounds_unchecked"] = r.ht_bounds_unchecked;
             ht["worst_bound_ratio"] = r.ht_worst_bound_ratio;
         }
         d["ht"] = ht;

@@ -2,8 +2,9 @@
 // Verification of a .tlod container (`tetlod verify`): every checksum and
 // structural rule; the MT decoded (labels, dependencies, errors and masks
 // validated) and extracted; the HT decoded whole. Deep verification also
-// recomputes every exact diamond error from the decoded field and checks that
-// each stored bound is at least it; for the MT it runs a full refinement, checks
+// recomputes, by brute force, the closed error of every HT tet in the data box
+// and checks that its diamond's bound is at least it, plus E in a lossy file
+// (ht_bound_check.hpp); for the MT it runs a full refinement, checks
 // that its final mesh is the reference mesh (5 tets per cell) and that every tet
 // on the way has a closed error (exact, recomputed from the decoded field by
 // brute force, mt_bound_check.hpp) no larger than its creator's stored error,
@@ -38,12 +39,13 @@ struct VerifyReport {
 
     bool ht_ok = false;              // HT decoded: field and every chunk
     uint64_t ht_chunks_decoded = 0;
-    bool ht_deep_ok = false;         // deep: every stored bound >= exact error
-    uint64_t ht_bounds_checked = 0;
-    double ht_worst_bound_ratio = 1;  // largest stored / exact over nonzero errors
+    bool ht_deep_ok = false;          // deep: every diamond bound >= its tets' exact errors + E
+    uint64_t ht_bounds_checked = 0;   // deep: tets of the hierarchy in the data box compared with their bound
+    uint64_t ht_bounds_unchecked = 0;  // deep: of a float field, tets with a non-finite value (skipped)
+    double ht_worst_bound_ratio = 1;  // largest bound / (exact + E) over tets with exact + E > 0
     /// Format 3.1 lossy container: the stated bound E (0: lossless). Checked
     /// (finite, > 0, with the LOSSY feature) when the HT is read; with --deep,
-    /// every finite decoded bound is >= E as well.
+    /// every decoded bound is >= its tets' exact errors + E.
     double max_error = 0;
 
     std::optional<Failure> failure;
