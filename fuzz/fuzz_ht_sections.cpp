@@ -6,6 +6,8 @@
 // A chunk payload may start with "MODE", a byte f and a u64 raw size (format 3.0
 // chunk modes, spec §6.4): the section's table flags get mode f & 15, and ZSTD
 // when f & 16 (its raw size then that u64), so the mode checks are reached too.
+// A decoded HT of at most 2^15 grid points also has its bounds checked
+// (check_ht_bounds, what verify --deep runs): it may report violations, never crash.
 #include <cstddef>
 #include <algorithm>
 #include <cstdint>
@@ -13,6 +15,7 @@
 #include <string_view>
 
 #include "fuzz_split.hpp"
+#include "tetlod/analysis/ht_bound_check.hpp"
 #include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
@@ -67,7 +70,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     {
         auto r = tlod::ContainerReader::from_memory(file);
         if (!r) return 0;
-        (void)decode_ht(*r);
+        auto d = decode_ht(*r);
+        if (d && d->field.dims.count() <= (int64_t(1) << 15)) {
+            const HtDomain& dom = d->layout.domain;
+            try {
+                (void)check_ht_bounds(d->field, dom.k, {dom.box_max[0], dom.box_max[1], dom.box_max[2]},
+                                      std::span<const float>(d->errors.data(), d->errors.size()), d->layout.max_error);
+            } catch (const Error&) {
+            }
+        }
     }
     {  // a coarse box request and the lazy extraction read other subsets of chunks
         auto r = tlod::ContainerReader::from_memory(file);
