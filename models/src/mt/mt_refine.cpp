@@ -171,12 +171,19 @@ struct MtRefiner {
 
     std::vector<uint32_t> star, perm;
     std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> keys;
+    // A star tet's face through s, as its other two corners a < b in one 64-bit key
+    // (a in the high half: the key order is the (a, b) order). Comparing std::arrays
+    // for equality went through memcmp, 8 % of extract's time.
     struct FaceUse {
-        std::array<uint32_t, 2> ab;
+        uint64_t ab;
         uint8_t wside;
         bool operator<(const FaceUse& o) const { return ab < o.ab || (ab == o.ab && wside < o.wside); }
+        std::array<uint32_t, 2> corners() const { return {uint32_t(ab >> 32), uint32_t(ab)}; }
     };
+    static uint64_t face_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
     std::vector<FaceUse> faces;
+    std::vector<uint8_t> side;                         // per star tet: goes to w
+    std::vector<std::array<uint32_t, 2>> edge_tets;  // (a, b) of each new tet (s, w, a, b)
     std::vector<uint32_t> touched;
 
     void split(uint32_t sv) {
@@ -190,7 +197,7 @@ struct MtRefiner {
         const Pt ps = grid.coord(s), pw = grid.coord(w);
         mt::star_order(star, s, ps, pw, [&](uint32_t v) { return grid.coord(v); }, [&](uint32_t t) -> const std::array<uint32_t, 4>& { return tv[t]; },
                        perm, keys);
-        std::vector<uint8_t> side(star.size());
+        side.assign(star.size(), 0);
         const uint64_t mask = m.mask_offset(k);
         for (uint32_t r = 0; r < perm.size(); ++r) side[perm[r]] = m.mask_bit(mask + r) ? 1 : 0;
         faces.clear();
@@ -200,20 +207,20 @@ struct MtRefiner {
             for (int j = 0; j < 4; ++j)
                 if (tv[star[i]][j] != s) o[c++] = tv[star[i]][j];
             std::sort(o.begin(), o.end());
-            faces.push_back({{o[0], o[1]}, side[i]});
-            faces.push_back({{o[0], o[2]}, side[i]});
-            faces.push_back({{o[1], o[2]}, side[i]});
+            faces.push_back({face_key(o[0], o[1]), side[i]});
+            faces.push_back({face_key(o[0], o[2]), side[i]});
+            faces.push_back({face_key(o[1], o[2]), side[i]});
         }
         std::sort(faces.begin(), faces.end());
-        std::vector<std::array<uint32_t, 2>> edge_tets;
+        edge_tets.clear();
         for (size_t i = 0; i < faces.size();) {
             size_t j = i;
             while (j < faces.size() && faces[j].ab == faces[i].ab) ++j;
             if (j - i > 2) corrupt("non-manifold star");
             if (j - i == 2) {
-                if (faces[i].wside != faces[i + 1].wside) edge_tets.push_back(faces[i].ab);
+                if (faces[i].wside != faces[i + 1].wside) edge_tets.push_back(faces[i].corners());
             } else if (faces[i].wside) {
-                const auto& ab = faces[i].ab;
+                const auto ab = faces[i].corners();
                 if (mt::orient(ps, grid.coord(ab[0]), grid.coord(ab[1]), pw) != 0) edge_tets.push_back(ab);
             }
             i = j;
