@@ -43,8 +43,7 @@ int run_verify(const VerifyArgs& a) {
             o << " (" << rep.mt_bounds_unchecked << " tets with non-finite values not checked)";
     }
     if (rep.ht_ok) o << "; HT structure; field and " << rep.ht_chunks_decoded << " chunks decoded";
-    if (rep.ht_deep_ok)
-    {
+    if (rep.ht_deep_ok) {
         o << "; deep: all " << rep.ht_bounds_checked << " HT tet bounds >= exact errors (at most "
           << format_number(rep.ht_worst_bound_ratio) << "x)";
         if (rep.ht_bounds_unchecked > 0)

@@ -199,15 +199,12 @@ HtBoundCheck check_ht_bounds(const Volume& field, int k, const std::array<int64_
         throw Error(ErrorCode::InvalidArgument, "HT bound check: field or bounds do not cover the data box");
     return dispatch_value_type(field.type, [&](auto tag) {
         using V = decltype(tag);
-        // The roots' subtrees, split down to kSplitLevel, are the parallel tasks; their
-        // results merge in depth-first order, so the first violation and every count
-        // are those of one sequential walk.
-        std::vector<HierTet> tasks;
+        // Pieces in depth-first order: each tet above split_level alone, each tet at it
+        // with its whole subtree. They run on the TBB threads and merge in that order,
+        // so the first violation and every count are those of one sequential walk.
         const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
         const int max_level = 3 * k;
         const int split_level = std::min(max_level, 6);
-        std::vector<HtBoundCheck> parts;
-        Walker<V> top{field.as<V>(), dims, max_level, box_max, bounds, field_error, {}};
         std::vector<HierTet> stack;
         for (int r = 5; r >= 0; --r) {
             HierTet t;
@@ -218,36 +215,30 @@ HtBoundCheck check_ht_bounds(const Volume& field, int k, const std::array<int64_
             t.x[3] = {L, L, L};
             stack.push_back(t);
         }
-        // Levels above split_level are checked here, in order; each tet reaching it is
-        // a task, and its place in `tasks` is its place in the depth-first order. The
-        // checks of the levels above are recorded as parts of their own, interleaved.
-        std::vector<int> order;  // >= 0: a task; -1 - i: parts_above[i]
-        std::vector<HtBoundCheck> above;
+        struct Piece {
+            HierTet tet;
+            bool subtree;
+        };
+        std::vector<Piece> pieces;
         while (!stack.empty()) {
             const HierTet t = stack.back();
             stack.pop_back();
-            if (t.level == split_level) {
-                order.push_back(int(tasks.size()));
-                tasks.push_back(t);
-                continue;
-            }
-            Walker<V> one{top.f, dims, max_level, box_max, bounds, field_error, {}};
-            const bool deeper = one.check(t);
-            above.push_back(one.out);
-            order.push_back(-1 - int(above.size() - 1));
-            if (!deeper || t.level + 1 >= max_level) continue;
+            if (t.level >= max_level || place(t, box_max) == Place::Outside) continue;  // nothing to check below
+            pieces.push_back({t, t.level == split_level});
+            if (t.level == split_level || t.level + 1 >= max_level) continue;
             const auto kids = bisect(t);
             stack.push_back(kids[1]);
             stack.push_back(kids[0]);
         }
-        parts.resize(tasks.size());
-        tbb::parallel_for(size_t(0), tasks.size(), [&](size_t i) {
-            Walker<V> w{top.f, dims, max_level, box_max, bounds, field_error, {}};
-            w.walk(tasks[i]);
+        std::vector<HtBoundCheck> parts(pieces.size());
+        tbb::parallel_for(size_t(0), pieces.size(), [&](size_t i) {
+            Walker<V> w{field.as<V>(), dims, max_level, box_max, bounds, field_error, {}};
+            if (pieces[i].subtree) w.walk(pieces[i].tet);
+            else w.check(pieces[i].tet);
             parts[i] = w.out;
         });
         HtBoundCheck out;
-        for (const int o : order) merge(out, o >= 0 ? parts[size_t(o)] : above[size_t(-1 - o)]);
+        for (const HtBoundCheck& part : parts) merge(out, part);
         return out;
     });
 }
