@@ -55,8 +55,9 @@ void print_written(const std::string& output, const VolumeLocation& where, const
 }
 
 // Metadata the output format cannot hold is written without, never refused,
-// and said so on stderr (the key names, so nothing is lost silently).
+// and said so on stderr (the key names, so nothing is lost silently) unless -q.
 void warn_metadata_lost(const Volume& v, const std::string& output, const std::string& format) {
+    if (verbosity() < 0) return;  // -q: errors only
     const auto lost = metadata_keys_lost(v, output, format);
     if (lost.empty()) return;
     std::string keys;

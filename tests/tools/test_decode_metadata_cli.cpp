@@ -63,6 +63,10 @@ TEST(DecodeMetadata, SpaceUnitsNeverStopAnOutputAndWhatIsLeftOutIsReported) {
         if (o.any_kept) {
             EXPECT_FALSE(contains(d.err, "'scanner'")) << d.err;
         }
+        // -q is errors only (zstd's convention): the same decode, no warning.
+        const CliRun dq = run("-q decode -f " + q(dir + "/in.tlod") + " " + q(path));
+        ASSERT_EQ(dq.code, 0) << dq.err;
+        EXPECT_EQ(dq.err, "");
         const Volume v = read_volume(path);
         ASSERT_EQ(v.data.size(), samples.size());
         EXPECT_TRUE(std::equal(samples.begin(), samples.end(), reinterpret_cast<const uint8_t*>(v.data.data())));

@@ -93,7 +93,7 @@ TEST(LossyCli, AbsoluteBoundDecodeAndVerify) {
         worst = std::max(worst, std::abs(int((unsigned char)a[i]) - int((unsigned char)b[i])));
     EXPECT_LE(worst, 3);
     EXPECT_GT(worst, 0);  // it is lossy
-    // -q: no note (warnings, e.g. metadata a raw file cannot hold, still go to stderr).
+    // -q: no note (errors only, as zstd's -q).
     EXPECT_FALSE(contains(run("-q decode '" + path + "' '" + back + "'").err, "lossy container"));
 
     const CliRun v = run("verify --deep '" + path + "' --original '" + raw + "' --dims 17,17,17 --dtype u8");
