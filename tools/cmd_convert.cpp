@@ -13,6 +13,7 @@
 #include <ostream>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 
 namespace tetlod::cli {
@@ -87,15 +88,15 @@ int run_convert(const ConvertArgs& a) {
         Volume h = planes->header();
         add_meta(h.metadata);
         planes = with_header(std::move(planes), std::move(h));
-        detail("converting " + a.input + " plane by plane in at most " + format_bytes(memory));
+        detail("converting " + with_stdin_named(a.input) + " plane by plane in at most " + format_bytes(memory));
     } else {
         if (!a.memory.empty() && !a.in_memory)
-            detail("note: " + a.input + " is read whole (" +
+            detail("note: " + with_stdin_named(a.input) + " is read whole (" +
                    std::string(with_mt ? "the MT is built in memory" : "its format is not read plane by plane") +
                    "); --memory does not bound this conversion");
         whole = load_volume(a.input, a.volume.options());
         add_meta(whole->metadata);
-        detail("read " + a.input + ": " + format_dims(whole->dims) + " " + value_type_name(whole->type) + " in " +
+        detail("read " + with_stdin_named(a.input) + ": " + format_dims(whole->dims) + " " + value_type_name(whole->type) + " in " +
                format_seconds(sw.seconds()));
     }
     const Volume& header = planes ? planes->header() : *whole;
@@ -154,7 +155,7 @@ int run_convert(const ConvertArgs& a) {
             encoding->update(done, total);
             if (done == total) {
                 encoding.reset();
-                detail("scanned " + a.input + " (range, coarse lattice) in " + format_seconds(sw.seconds()));
+                detail("scanned " + with_stdin_named(a.input) + " (range, coarse lattice) in " + format_seconds(sw.seconds()));
             }
         } else if (stage == "encoded HT") {
             encoding.reset();  // erases the bar

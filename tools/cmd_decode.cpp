@@ -163,7 +163,7 @@ int run_decode(const DecodeArgs& a) {
     const double write_seconds = write_clock.seconds();
 
     auto& o = out();
-    o << "input    " << a.input << ": " << format_dims(dims) << " " << value_type_name(original.type)
+    o << "input    " << with_stdin_named(a.input) << ": " << format_dims(dims) << " " << value_type_name(original.type)
       << ", values " << format_number(range[0]) << ".." << format_number(range[1])
       << (container ? " (.tlod)" : "") << "\n";
     o << "query    " << (mt ? "MT" : "HT") << ", " << a.lod.describe(query, range) << "\n";

@@ -10,6 +10,7 @@
 #include <span>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 #include "model_choice.hpp"
 
@@ -110,7 +111,7 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
             .take();
     auto& o = out();
     if (model == ModelKind::Mt) {
-        o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
+        o << "input    " << with_stdin_named(a.input) << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, MT: " << x.mt_updates << " vertex splits, field "
           << (x.mt_field_from_ht ? "from the HT" : "in the MT") << ")\n";
         o << "mesh     " << x.tet_count << " tets, " << x.vertex_count << " vertices, largest error "
@@ -118,7 +119,7 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
           << ", " << format_seconds(x.seconds) << "\n";
         warn_if_below_field_error(a.input, x);
     } else {
-        o << "input    " << a.input << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
+        o << "input    " << with_stdin_named(a.input) << ": " << format_dims(x.dims) << " " << value_type_name(x.type)
           << " (.tlod, lazy)\n";
         o << "mesh     " << x.tet_count << " tets, " << x.vertex_count
           << " vertices, largest error " << format_error(x.max_error, x.range)
@@ -184,7 +185,7 @@ int run_extract(const ExtractArgs& a) {
                  std::to_string(stats.visited_tets) + " tets visited";
 
     auto& o = out();
-    o << "input    " << a.input << ": " << format_dims(dims) << " " << type_name << ", values "
+    o << "input    " << with_stdin_named(a.input) << ": " << format_dims(dims) << " " << type_name << ", values "
       << format_number(range[0]) << ".." << format_number(range[1]) << "\n";
     o << "query    " << a.lod.describe(query, range) << "\n";
     o << "mesh     " << counted.tets << " tets, " << counted.vertices

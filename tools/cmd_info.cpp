@@ -9,6 +9,7 @@
 #include <ostream>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 
 namespace tetlod::cli {
@@ -121,7 +122,7 @@ int run_info(const InfoArgs& a) {
         return 0;
     }
     auto& o = out();
-    o << a.input << ": tlod " << h.version_major << "." << h.version_minor << ", "
+    o << with_stdin_named(a.input) << ": tlod " << h.version_major << "." << h.version_minor << ", "
       << format_bytes(h.file_size) << " (" << format_number(double(h.file_size) / n)
       << " bytes per grid point; raw " << value_size(md.type) << ")\n";
     o << "  models    " << (lay ? "HT " + format_bytes(ht_bytes) + " (" + format_number(double(ht_bytes) / n) + " B/pt)" : "")

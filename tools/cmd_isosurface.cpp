@@ -8,6 +8,7 @@
 #include <ostream>
 
 #include "cli_common.hpp"
+#include "cli_outputs.hpp"
 #include "command.hpp"
 #include "model_choice.hpp"
 
@@ -59,7 +60,7 @@ int run_isosurface(const IsoArgs& a) {
     const double write_seconds = write_clock.seconds();
 
     auto& o = out();
-    o << "input    " << a.input << ": " << format_dims(model.dims) << ", values "
+    o << "input    " << with_stdin_named(a.input) << ": " << format_dims(model.dims) << ", values "
       << format_number(range[0]) << ".." << format_number(range[1]) << ", model "
       << model_kind_name(model.kind) << "\n";
     o << "query    error <= " << format_error(query.error_in, range) << " in the region ("

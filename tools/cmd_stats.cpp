@@ -56,7 +56,7 @@ int run_stats(const StatsArgs& a) {
         nlohmann::json j{{"file", a.input}, {"models", stats_json(stats)}};
         out() << j.dump(2) << "\n";
     } else {
-        out() << a.input << "\n" << stats_text(stats);
+        out() << with_stdin_named(a.input) << "\n" << stats_text(stats);
     }
     if (!a.plot_dir.empty()) {
         const auto files = write_stats_plots(stats, a.plot_dir, dataset);

@@ -142,6 +142,18 @@ TEST(CliOutputs, DashIsStdoutAndStdinWhereTheFormatStreams) {
     }
     r = run_no_force("extract '" + d + "/v.tlod' - --format mesh --error 1");
     EXPECT_EQ(r.code, 2) << r.err;
+    // Read from stdin, the reports name it "<stdin>", not the spool file.
+    r = sh(cli + " extract - '" + d + "/from_stdin.vtk' --error 1 < '" + d + "/v.tlod'");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("input    <stdin>:"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("tetlod-stdin"), std::string::npos) << r.out;
+    r = sh(cli + " info - < '" + d + "/v.tlod'");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out.rfind("<stdin>: tlod ", 0), 0u) << r.out;
+    // '-' without --format: a usage error that says how to name the format.
+    r = run_no_force("extract '" + d + "/v.tlod' - --error 1");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("--format"), std::string::npos) << r.err;
     // A broken container on stdin: the error speaks of <stdin>, not of the spool file.
     r = sh("head -c 300 '" + d + "/v.tlod' | " + cli + " decode - '" + d + "/broken.raw'");
     EXPECT_EQ(r.code, 4) << r.err;

@@ -36,6 +36,10 @@ const MeshFormat& choose_format(const std::string& path, const std::string& form
                                                         "' (supported: " + joined_formats() + ")");
     } else {
         const std::string ext = std::filesystem::path(path).extension().string();
+        if (path == "-")
+            throw Error(ErrorCode::InvalidArgument,
+                        "'-' (standard output) has no file extension: name the mesh format (the CLI's --format; "
+                        "supported: " + joined_formats() + ")");
         if (ext.empty() || ext == ".")
             throw Error(ErrorCode::InvalidArgument,
                         "'" + path +
