@@ -27,7 +27,7 @@ struct ConvertArgs {
     std::vector<std::string> meta;
     int level = 19;
     bool level_given = false;
-    int brick_log2 = 4;
+    int brick_log2 = 0;  // automatic (auto_brick_log2)
     int error_bits = 4;
     int mt_error_bits = 7;
     double max_shape_ratio = kDefaultMtMaxShapeRatio;
@@ -231,9 +231,10 @@ const CommandRegistration convert_registration{Command{
             ->each([a](const std::string&) { a->level_given = true; })
             ->group(g);
         sub.add_option("--brick-log2", a->brick_log2,
-                       "Bricks of cycle t span 2^(t+1+N) grid steps (smaller: finer box reads)")
+                       "Bricks of cycle t span 2^(t+1+N) grid steps (smaller: finer box reads, larger: smaller "
+                       "files). 0: 5 when no axis has more than 129 samples, else 4")
             ->capture_default_str()
-            ->check(CLI::Range(1, 16))
+            ->check(CLI::Range(0, 16))
             ->group(g);
         sub.add_option("--error-bits", a->error_bits,
                        "HT: mantissa bits of stored error bounds (bound <= error * (1 + 2^-N))")

@@ -204,7 +204,7 @@ MpiConvertResult convert_mpi(MPI_Comm comm, const std::string& input, const std:
     MPI_Bcast(&pid, 1, MPI_INT, 0, comm);
     const std::string written =
         (to_file ? output : std::string("tetlod-mpi-stdout")) + ".tetlod-mpi-" + std::to_string(pid) + ".tmp";
-    const HtEncodeOptions encode = container_ht_encode_options(o.write);
+    const HtEncodeOptions encode = container_ht_encode_options(o.write, result.header);
     PlaneExchange exchange;
     result.failure = run_phase(comm, [&] {
         exchange = plan_exchange(domain, encode.brick_log2, partition, rank);

@@ -41,7 +41,7 @@ struct Args {
     bool pad = false, force = false, quiet = false;
     int verbose = 0;
     std::vector<std::string> meta;
-    int level = 19, brick_log2 = 4, error_bits = 4;
+    int level = 19, brick_log2 = 0, error_bits = 4;  // brick_log2 0: automatic
     std::string memory, axis_order;
     std::string table = "compact";  // convert: section table layout
     // extract
@@ -272,9 +272,11 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     convert->add_option("--memory", a.memory, "Accepted for compatibility and checked; unused since every rank encodes its own rows (memory: docs/distributed.md)");
     convert->add_option("--meta", a.meta, "User metadata key=value (repeatable)");
     convert->add_option("--level", a.level, "zstd level of every section")->capture_default_str()->check(CLI::Range(1, 22));
-    convert->add_option("--brick-log2", a.brick_log2, "Bricks of cycle t span 2^(t+1+N) grid steps")
+    convert->add_option("--brick-log2", a.brick_log2,
+                        "Bricks of cycle t span 2^(t+1+N) grid steps; 0: 5 when no axis has more than 129 samples, "
+                        "else 4 (as tetlod convert)")
         ->capture_default_str()
-        ->check(CLI::Range(1, 16));
+        ->check(CLI::Range(0, 16));
     convert->add_option("--table", a.table, "Section table layout: compact (format 3.2) or full (a 3.0 file for older readers)")
         ->capture_default_str()
         ->check(CLI::IsMember({"compact", "full"}));

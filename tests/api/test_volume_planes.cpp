@@ -164,6 +164,7 @@ TEST(VolumePlanes, CorruptChunkIsAnErrorNamingTheContainer) {
     const std::string path = tmp("bad.tlod");
     ContainerWriteOptions o;
     o.zstd_level = 3;
+    o.brick_log2 = 4;  // the layout the byte below is chosen for (automatic: 5 here)
     write_container(Volume(v), path, o);
     // Flip a byte near the end: inside the finest cycle's last chunks.
     std::string bytes = slurp(path);

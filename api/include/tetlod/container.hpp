@@ -47,7 +47,9 @@ struct ContainerWriteOptions {
     /// 0: zstd_level. Level 19 on them costs about 2 CPU s per MB for some 5 %
     /// (257^3: 278 CPU s at 19, 34 at 12, for 5.4 % more MT bytes; docs/mt.md §5).
     int mt_large_stream_zstd_level = 12;
-    int brick_log2 = 4;          // HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16
+    /// HT: bricks of cycle t span 2^(t+1+N) grid steps, 1..16; 0: automatic
+    /// (auto_brick_log2 of the volume's dims).
+    int brick_log2 = 0;
     int error_bits = 4;          // HT: mantissa bits of stored error bounds, 0..7
     /// MT: mantissa bits of stored error bounds, 0..7 (each bound rounded up,
     /// so at most 2^-N too high). Fewer bits store less (a float MT about 8%
@@ -115,8 +117,18 @@ std::size_t default_memory_budget();
 /// provenance of `options`; for writers that assemble the container
 /// themselves (tetlod-mpi), so they record exactly the same keys.
 tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOptions& options);
-/// The HT encoder's options write_container uses for `options`.
-HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& options);
+/// The HT encoder's options write_container uses for `options` and a volume
+/// with this header (which settles an automatic brick size).
+HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& options, const Volume& header);
+
+/// The brick size ContainerWriteOptions::brick_log2 = 0 stands for: 5 (bricks
+/// of 64 grid steps at the finest cycle) when no axis has more than 129
+/// samples, else 4 (32 steps). Each chunk's coder contexts start afresh, so
+/// larger bricks code smaller (bucky 128^3 -2.5 %, iron 68^3 -5.9 %:
+/// docs/archival.md), while on a volume this small a query that reads whole
+/// 64-step bricks reads little; larger volumes keep the finer bricks, whose
+/// reads follow the region a query touches.
+int auto_brick_log2(const Dims& dims);
 
 /// Whether a lossy conversion (max_error > 0) of a volume with this header is
 /// done in memory within `memory_bytes` (0: default_memory_budget()): the

@@ -77,7 +77,7 @@ void check_options(const ContainerWriteOptions& o) {
     if (!o.ht && !o.mt) throw Error(ErrorCode::InvalidArgument, "write_container: no model requested");
     check_range("zstd level", o.zstd_level, 1, 22);
     check_range("MT large-stream zstd level", o.mt_large_stream_zstd_level, 0, 22);
-    check_range("brick_log2", o.brick_log2, 1, 16);
+    check_range("brick_log2", o.brick_log2, 0, 16);
     check_range("error bits", o.error_bits, 0, 7);
     check_range("MT error bits", o.mt_error_bits, 0, 7);
     if (!(o.max_error >= 0) || !std::isfinite(o.max_error))
@@ -90,8 +90,17 @@ void check_options(const ContainerWriteOptions& o) {
         throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
 }
 
+/// `o` with an automatic brick size settled for these dims: every write path
+/// resolves it once, at its entry, so whole, streamed and distributed writes
+/// of one volume code alike.
+ContainerWriteOptions with_brick_size(ContainerWriteOptions o, const Dims& dims) {
+    if (o.brick_log2 == 0) o.brick_log2 = auto_brick_log2(dims);
+    return o;
+}
+
 /// The HT encoder's options a container write implies (the one mapping:
-/// whole, streamed and distributed writes must code alike).
+/// whole, streamed and distributed writes must code alike). `o` is resolved
+/// (with_brick_size).
 HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
     HtEncodeOptions e;
     e.zstd_level = o.zstd_level;
@@ -209,7 +218,8 @@ ContainerWriteSummary write_lossy_container(Volume volume, const std::string& pa
 HtStreamEncodeOptions stream_options(const ContainerWriteOptions& o) {
     HtStreamEncodeOptions so;
     so.pad = o.pad;
-    so.encode = container_ht_encode_options(o);
+    check_options(o);
+    so.encode = ht_encode_fields(o);
     so.memory_bytes = o.memory_bytes ? o.memory_bytes : default_memory_budget();
     so.errors = o.ht_errors;
     if (o.progress)
@@ -321,13 +331,19 @@ tlod::Metadata container_metadata(const Volume& header, const ContainerWriteOpti
     return with_provenance(tlod::metadata_for_volume(header, {0, 0}), o);
 }
 
-HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& o) {
+int auto_brick_log2(const Dims& dims) {
+    return std::max({dims.x, dims.y, dims.z}) <= 129 ? 5 : 4;
+}
+
+HtEncodeOptions container_ht_encode_options(const ContainerWriteOptions& options, const Volume& header) {
+    const ContainerWriteOptions o = with_brick_size(options, header.dims);
     check_options(o);
     return ht_encode_fields(o);
 }
 
 ContainerWriteSummary write_container(VolumePlanes& source, const std::string& path,
-                                      const ContainerWriteOptions& o) {
+                                      const ContainerWriteOptions& options) {
+    const ContainerWriteOptions o = with_brick_size(options, source.header().dims);
     check_options(o);
     // The MT is built from the whole volume: a lossy request with it reads it whole.
     const double max_error = stored_max_error(source.header().type, o.max_error);
@@ -353,7 +369,8 @@ ContainerWriteSummary write_container(VolumePlanes& source, const std::string& p
     return summary;
 }
 
-ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& o) {
+ContainerWriteSummary write_container(Volume volume, const std::string& path, const ContainerWriteOptions& options) {
+    const ContainerWriteOptions o = with_brick_size(options, volume.dims);
     check_options(o);
     Stopwatch clock;
     // Lossy (before the range is recorded): integers can only honour floor(E),
