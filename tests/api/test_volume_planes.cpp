@@ -181,3 +181,34 @@ TEST(VolumePlanes, CorruptChunkIsAnErrorNamingTheContainer) {
     }
     EXPECT_FALSE(fs::exists(out));
 }
+
+// brick_log2 0 (the default) is settled from the volume's longest axis, the
+// same way by the whole and the plane-by-plane writers; an explicit size stays.
+TEST(VolumePlanes, AutomaticBrickSizeFollowsTheLongestAxisOnEveryWritePath) {
+    struct Case {
+        Dims dims;
+        int given, expected;
+    };
+    for (const Case& c : {Case{{129, 20, 9}, 0, 5}, Case{{9, 130, 9}, 0, 4}, Case{{20, 20, 20}, 3, 3},
+                          Case{{9, 9, 131}, 5, 5}}) {
+        SCOPED_TRACE(std::to_string(c.dims.x) + "x" + std::to_string(c.dims.y) + "x" + std::to_string(c.dims.z));
+        EXPECT_EQ(auto_brick_log2(c.dims), std::max({c.dims.x, c.dims.y, c.dims.z}) <= 129 ? 5 : 4);
+        const Volume v = make_sample_volume("multiscale", c.dims, ValueType::U8);
+        ContainerWriteOptions o;
+        o.brick_log2 = c.given;
+        o.created = 0;
+        o.zstd_level = 3;
+        const std::string whole = tmp("auto_whole.tlod"), streamed = tmp("auto_planes.tlod");
+        write_container(Volume(v), whole, o);
+        auto planes = planes_of(v);
+        write_container(*planes, streamed, o);
+        EXPECT_EQ(slurp(whole), slurp(streamed));
+        const ContainerInfo info = inspect_container(whole).take();
+        ASSERT_TRUE(info.ht.has_value());
+        EXPECT_EQ(info.ht->brick_log2, c.expected);
+    }
+    ContainerWriteOptions bad;
+    bad.brick_log2 = 17;
+    EXPECT_THROW(write_container(make_sample_volume("multiscale", Dims{5, 5, 5}, ValueType::U8), tmp("bad_g.tlod"), bad),
+                 Error);
+}
