@@ -4,7 +4,8 @@
 // the error bounds, in MB/s of raw output, plus wall time. With --threads N
 // (0: TBB's default) chunks of a cycle decode in parallel and wall time is the
 // figure to read. --field-only skips the field+errors run (what `tetlod decode`
-// does is the field only). Usage: bench_decode [RAW] [--reps N] [--threads N] [--field-only]
+// does is the field only); --brick-log2 G codes bricks of 2^(t+1+G) (default 4).
+// Usage: bench_decode [RAW] [--reps N] [--threads N] [--field-only] [--brick-log2 G]
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -46,13 +47,14 @@ static Volume sample_257() {
 
 int main(int argc, char** argv) {
     std::string raw;
-    int reps = 1, threads = 1;
+    int reps = 1, threads = 1, brick_log2 = 4;
     bool field_only = false;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--reps" && i + 1 < argc) reps = std::atoi(argv[++i]);
         else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
         else if (a == "--field-only") field_only = true;
+        else if (a == "--brick-log2" && i + 1 < argc) brick_log2 = std::atoi(argv[++i]);
         else raw = a;
     }
     std::unique_ptr<tbb::global_control> limit;
@@ -71,7 +73,9 @@ int main(int argc, char** argv) {
     }
     HtModel model = HtModel::build(v);
     tlod::ContainerWriter w;
-    encode_ht(model, tlod::metadata_for_volume(v), w);
+    HtEncodeOptions eo;
+    eo.brick_log2 = brick_log2;
+    encode_ht(model, tlod::metadata_for_volume(v), w, eo);
     const auto file = w.finish();
     const double mb = double(v.data.size()) / 1e6;
     for (bool errors : {false, true}) {
