@@ -436,6 +436,7 @@ double best_seconds(int reps, F&& f) {
 struct Row {
     std::string name;
     uint64_t points = 0, binary_bytes = 0, symbol_bytes = 0, noprev_bytes = 0;
+    uint64_t zeros = 0, in_zero_blocks = 0;  // zero residuals; points in all-zero blocks of 8 of a row
     double binary_s = 0, pair_s = 0, symbol_s = 0, symbol_pair_s = 0, noprev_s = 0, noprev_pair_s = 0;
     bool same = true;
 };
@@ -503,6 +504,20 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
     uint64_t expect = 0;
     for (const auto& pts : chunks)
         for (const auto& p : pts) expect += p.mag + p.neg;
+    for (const auto& pts : chunks) {
+        std::size_t i = 0;
+        while (i < pts.size()) {  // rows: from a row start to the next
+            std::size_t e = i + 1;
+            while (e < pts.size() && !pts[e].row_start) ++e;
+            for (std::size_t b = i; b < e; b += 8) {
+                const std::size_t n = std::min<std::size_t>(8, e - b);
+                bool all = true;
+                for (std::size_t k = b; k < b + n; ++k) all = all && pts[k].mag == 0, row.zeros += pts[k].mag == 0;
+                if (all && n == 8) row.in_zero_blocks += 8;
+            }
+            i = e;
+        }
+    }
     row.same = c1 == expect && c2 == expect && c3 == expect && c4 == expect && c5 == expect && c6 == expect;
     return row;
 }
@@ -530,19 +545,21 @@ int main(int argc, char** argv) {
     vols.emplace_back("gen:multiscale_129^3_u8", make_sample_volume("multiscale", Dims{129, 129, 129}, ValueType::U8));
     vols.emplace_back("gen:noisy_129^3_u8", make_sample_volume("noisy", Dims{129, 129, 129}, ValueType::U8));
     std::printf("HT field entropy stage alone: bytes and one-thread decode ns per point (best of %d)\n", reps);
-    std::printf("%-34s %9s %9s %7s %7s | %7s %7s %7s %7s %7s %7s %5s\n", "volume", "points", "binary_B", "sym", "sym-np",
-                "binary", "bin-x2", "sym", "sym-x2", "sym-np", "np-x2", "check");
+    std::printf("%-34s %9s %9s %7s %7s | %7s %7s %7s %7s %7s %7s %5s | %6s %6s\n", "volume", "points", "binary_B", "sym",
+                "sym-np", "binary", "bin-x2", "sym", "sym-x2", "sym-np", "np-x2", "check", "zero%", "z8%");
     for (const auto& [name, vol] : vols) {
         Row r;
         dispatch_value_type(vol.type, [&](auto tv) { r = measure<decltype(tv)>(name, vol, reps); });
         const double n = double(r.points) / 1e9;
-        std::printf("%-34s %9llu %9llu %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %5s\n", r.name.c_str(),
+        std::printf("%-34s %9llu %9llu %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %5s | %6.1f %6.1f\n", r.name.c_str(),
                     (unsigned long long)r.points, (unsigned long long)r.binary_bytes,
                     double(r.symbol_bytes) / double(r.binary_bytes), double(r.noprev_bytes) / double(r.binary_bytes),
                     r.binary_s / n, r.pair_s / n, r.symbol_s / n, r.symbol_pair_s / n, r.noprev_s / n,
-                    r.noprev_pair_s / n, r.same ? "ok" : "BAD");
+                    r.noprev_pair_s / n, r.same ? "ok" : "BAD", 100.0 * double(r.zeros) / double(r.points),
+                    100.0 * double(r.in_zero_blocks) / double(r.points));
     }
     std::printf("sizes relative to binary; times in ns per point, one thread (x2: two chunks in lockstep;\n"
-                "np: contexts without the row's previous point, so a point's model does not wait for it)\n");
+                "np: contexts without the row's previous point, so a point's model does not wait for it);\n"
+                "zero%%: points with a zero residual; z8%%: points in blocks of 8 along a row whose residuals are all zero\n");
     return 0;
 }
