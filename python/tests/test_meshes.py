@@ -167,6 +167,24 @@ def test_convert_takes_a_zstd_level_or_none(volume, work):
         tetlod.convert(volume[0], str(work / "level_23.tlod"), zstd_level=23)
 
 
+def test_convert_takes_the_brick_size_and_error_bits(volume, work):
+    # None: the library's automatic bricks (5 for a volume this small) and 4
+    # error bits; given, they are what the file says, as the CLI's options.
+    auto = str(work / "bricks_auto.tlod")
+    tetlod.convert(volume[0], auto)
+    assert tetlod.info(auto)["ht"]["brick_log2"] == 5
+    fine = str(work / "bricks_2.tlod")
+    tetlod.convert(volume[0], fine, brick_log2=2, error_bits=0)
+    info = tetlod.info(fine)
+    assert info["ht"]["brick_log2"] == 2
+    assert info["ht"]["error_mantissa_bits"] == 0
+    assert (tetlod.decode(fine) == tetlod.decode(auto)).all()
+    with pytest.raises(tetlod.Error, match="brick_log2"):
+        tetlod.convert(volume[0], str(work / "bricks_17.tlod"), brick_log2=17)
+    with pytest.raises(tetlod.Error, match="error bits"):
+        tetlod.convert(volume[0], str(work / "bits_8.tlod"), error_bits=8)
+
+
 def test_lossy_container_states_its_bound_on_every_tet(volume, cli, work):
     # A lossy container (every sample within E = 3 of the original): no tet's
     # bound is below E, the finest (unit) tets included.
