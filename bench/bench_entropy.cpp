@@ -422,6 +422,83 @@ uint64_t decode_symbols_pair(const std::vector<PointRecord>& a, const SymbolStre
     return check;
 }
 
+// ---- prototype: one symbol for two small residuals ----
+//
+// Two successive points of a row whose residuals are both -1, 0 or +1 take one
+// symbol (3 a + b, 0..8) of a model chosen by the first point's context
+// (without the previous point, as sym-np); 9 escapes to one symbol each, as
+// sym-np codes them. A row's odd last point is coded alone.
+
+[[gnu::always_inline]] inline int trit(const PointRecord& p) { return p.mag == 0 ? 1 : p.neg ? 0 : 2; }
+
+void encode_one(SymbolEncoder& e, BitWriter& bw, SymbolModels& m, const PointRecord& p) {
+    const int n = rc::bit_length(p.mag);
+    const int sym = n == 0 ? 0 : n <= kMaxInlineLength ? (p.neg ? kMaxInlineLength + n : n) : kSymbols - 1;
+    e.encode(m.m[p.cls][bucket_of(p, 0)], sym);
+    if (sym == kSymbols - 1) {
+        bw.put(uint64_t(n - kMaxInlineLength - 1), 6);
+        bw.put(p.neg, 1);
+    }
+    if (n > 1) {
+        const uint64_t rest = p.mag & ((uint64_t{1} << (n - 1)) - 1);
+        if (n - 1 > 48) {
+            bw.put(rest & 0xFFFFFF, 24);
+            bw.put(rest >> 24, n - 1 - 24);
+        } else {
+            bw.put(rest, n - 1);
+        }
+    }
+}
+
+constexpr int kDuoEscape = 9;
+
+SymbolStreams encode_duos(const std::vector<PointRecord>& pts) {
+    SymbolStreams out;
+    SymbolEncoder e{&out.symbols};
+    BitWriter bw;
+    auto single = std::make_unique<SymbolModels>(), duo = std::make_unique<SymbolModels>();
+    for (std::size_t i = 0; i < pts.size();) {
+        const PointRecord& p = pts[i];
+        if (i + 1 < pts.size() && !pts[i + 1].row_start) {
+            const PointRecord& q = pts[i + 1];
+            const bool small = p.mag <= 1 && q.mag <= 1;
+            e.encode(duo->m[p.cls][bucket_of(p, 0)], small ? 3 * trit(p) + trit(q) : kDuoEscape);
+            if (!small) encode_one(e, bw, *single, p), encode_one(e, bw, *single, q);
+            i += 2;
+        } else {
+            encode_one(e, bw, *single, p);
+            i += 1;
+        }
+    }
+    e.finish();
+    bw.finish();
+    out.bits = std::move(bw.out);
+    return out;
+}
+
+uint64_t decode_duos(const std::vector<PointRecord>& pts, const SymbolStreams& in) {
+    SymbolChunkDecoder c(in);  // its models: the single ones
+    auto duo = std::make_unique<SymbolModels>();
+    uint64_t check = 0;
+    for (std::size_t i = 0; i < pts.size();) {
+        const PointRecord& p = pts[i];
+        if (i + 1 < pts.size() && !pts[i + 1].row_start) {
+            const int sym = c.d.decode(duo->m[p.cls][bucket_of(p, 0)]);
+            if (sym < kDuoEscape) [[likely]] {
+                const int a = sym / 3, b = sym - 3 * (sym / 3);
+                check += uint64_t(a != 1) + uint64_t(a == 0) + uint64_t(b != 1) + uint64_t(b == 0);
+            } else {
+                check += c.point<false>(p) + c.point<false>(pts[i + 1]);
+            }
+            i += 2;
+        } else {
+            check += c.point<false>(p);
+            i += 1;
+        }
+    }
+    return check;
+}
+
 template <class F>
 double best_seconds(int reps, F&& f) {
     double best = 1e30;
@@ -435,9 +512,9 @@ double best_seconds(int reps, F&& f) {
 
 struct Row {
     std::string name;
-    uint64_t points = 0, binary_bytes = 0, symbol_bytes = 0, noprev_bytes = 0;
+    uint64_t points = 0, binary_bytes = 0, symbol_bytes = 0, noprev_bytes = 0, duo_bytes = 0;
     uint64_t zeros = 0, in_zero_blocks = 0;  // zero residuals; points in all-zero blocks of 8 of a row
-    double binary_s = 0, pair_s = 0, symbol_s = 0, symbol_pair_s = 0, noprev_s = 0, noprev_pair_s = 0;
+    double binary_s = 0, pair_s = 0, symbol_s = 0, symbol_pair_s = 0, noprev_s = 0, noprev_pair_s = 0, duo_s = 0;
     bool same = true;
 };
 
@@ -461,7 +538,7 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
     Row row;
     row.name = name;
     std::vector<std::vector<std::byte>> bin;
-    std::vector<SymbolStreams> sym, sym0;
+    std::vector<SymbolStreams> sym, sym0, duo;
     for (const auto& pts : chunks) {
         row.points += pts.size();
         bin.push_back(encode_binary(pts, w));
@@ -470,6 +547,8 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
         row.binary_bytes += bin.back().size();
         row.symbol_bytes += sym.back().size();
         row.noprev_bytes += sym0.back().size();
+        duo.push_back(encode_duos(pts));
+        row.duo_bytes += duo.back().size();
     }
     uint64_t c1 = 0, c2 = 0, c3 = 0;
     row.binary_s = best_seconds(reps, [&] {
@@ -501,6 +580,11 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
         for (std::size_t i = 0; i < chunks.size(); ++i) c5 += decode_symbols<false>(chunks[i], sym0[i]);
     });
     row.noprev_pair_s = best_seconds(reps, [&] { c6 = pairs(sym0, std::false_type{}); });
+    uint64_t c7 = 0;
+    row.duo_s = best_seconds(reps, [&] {
+        c7 = 0;
+        for (std::size_t i = 0; i < chunks.size(); ++i) c7 += decode_duos(chunks[i], duo[i]);
+    });
     uint64_t expect = 0;
     for (const auto& pts : chunks)
         for (const auto& p : pts) expect += p.mag + p.neg;
@@ -518,7 +602,7 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
             i = e;
         }
     }
-    row.same = c1 == expect && c2 == expect && c3 == expect && c4 == expect && c5 == expect && c6 == expect;
+    row.same = c1 == expect && c2 == expect && c3 == expect && c4 == expect && c5 == expect && c6 == expect && c7 == expect;
     return row;
 }
 
@@ -545,21 +629,24 @@ int main(int argc, char** argv) {
     vols.emplace_back("gen:multiscale_129^3_u8", make_sample_volume("multiscale", Dims{129, 129, 129}, ValueType::U8));
     vols.emplace_back("gen:noisy_129^3_u8", make_sample_volume("noisy", Dims{129, 129, 129}, ValueType::U8));
     std::printf("HT field entropy stage alone: bytes and one-thread decode ns per point (best of %d)\n", reps);
-    std::printf("%-34s %9s %9s %7s %7s | %7s %7s %7s %7s %7s %7s %5s | %6s %6s\n", "volume", "points", "binary_B", "sym",
-                "sym-np", "binary", "bin-x2", "sym", "sym-x2", "sym-np", "np-x2", "check", "zero%", "z8%");
+    std::printf("%-34s %9s %9s %7s %7s %7s | %7s %7s %7s %7s %7s %7s %7s %5s | %6s %6s\n", "volume", "points",
+                "binary_B", "sym", "sym-np", "duo", "binary", "bin-x2", "sym", "sym-x2", "sym-np", "np-x2", "duo", "check",
+                "zero%", "z8%");
     for (const auto& [name, vol] : vols) {
         Row r;
         dispatch_value_type(vol.type, [&](auto tv) { r = measure<decltype(tv)>(name, vol, reps); });
         const double n = double(r.points) / 1e9;
-        std::printf("%-34s %9llu %9llu %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %5s | %6.1f %6.1f\n", r.name.c_str(),
+        std::printf("%-34s %9llu %9llu %6.3fx %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %5s | %6.1f %6.1f\n",
+                    r.name.c_str(),
                     (unsigned long long)r.points, (unsigned long long)r.binary_bytes,
                     double(r.symbol_bytes) / double(r.binary_bytes), double(r.noprev_bytes) / double(r.binary_bytes),
-                    r.binary_s / n, r.pair_s / n, r.symbol_s / n, r.symbol_pair_s / n, r.noprev_s / n,
-                    r.noprev_pair_s / n, r.same ? "ok" : "BAD", 100.0 * double(r.zeros) / double(r.points),
+                    double(r.duo_bytes) / double(r.binary_bytes), r.binary_s / n, r.pair_s / n, r.symbol_s / n,
+                    r.symbol_pair_s / n, r.noprev_s / n, r.noprev_pair_s / n, r.duo_s / n, r.same ? "ok" : "BAD", 100.0 * double(r.zeros) / double(r.points),
                     100.0 * double(r.in_zero_blocks) / double(r.points));
     }
     std::printf("sizes relative to binary; times in ns per point, one thread (x2: two chunks in lockstep;\n"
-                "np: contexts without the row's previous point, so a point's model does not wait for it);\n"
+                "np: contexts without the row's previous point, so a point's model does not wait for it;\n"
+                "duo: sym-np with one symbol for two successive points of a row whose residuals are -1, 0 or +1);\n"
                 "zero%%: points with a zero residual; z8%%: points in blocks of 8 along a row whose residuals are all zero\n");
     return 0;
 }
