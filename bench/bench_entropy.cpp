@@ -339,6 +339,27 @@ struct SymbolModels {
 /// context captures it too).
 constexpr int kMaxInlineLength = 7;
 
+/// One point's symbol (model given by its context, `wprev` the previous
+/// point's lattice value or 0) and its raw bits.
+void encode_one(SymbolEncoder& e, BitWriter& bw, SymbolModels& m, const PointRecord& p, uint32_t wprev) {
+    const int n = rc::bit_length(p.mag);
+    const int sym = n == 0 ? 0 : n <= kMaxInlineLength ? (p.neg ? kMaxInlineLength + n : n) : kSymbols - 1;
+    e.encode(m.m[p.cls][bucket_of(p, wprev)], sym);
+    if (sym == kSymbols - 1) {
+        bw.put(uint64_t(n - kMaxInlineLength - 1), 6);
+        bw.put(p.neg, 1);
+    }
+    if (n > 1) {
+        const uint64_t rest = p.mag & ((uint64_t{1} << (n - 1)) - 1);
+        if (n - 1 > 48) {
+            bw.put(rest & 0xFFFFFF, 24);
+            bw.put(rest >> 24, n - 1 - 24);
+        } else {
+            bw.put(rest, n - 1);
+        }
+    }
+}
+
 template <bool UsePrev>
 SymbolStreams encode_symbols(const std::vector<PointRecord>& pts) {
     SymbolStreams out;
@@ -348,22 +369,7 @@ SymbolStreams encode_symbols(const std::vector<PointRecord>& pts) {
     uint32_t wprev = 0;
     for (const auto& p : pts) {
         if (p.row_start) wprev = 0;
-        const int n = rc::bit_length(p.mag);
-        const int sym = n == 0 ? 0 : n <= kMaxInlineLength ? (p.neg ? kMaxInlineLength + n : n) : kSymbols - 1;
-        e.encode(m->m[p.cls][bucket_of(p, UsePrev ? wprev : 0)], sym);
-        if (sym == kSymbols - 1) {
-            bw.put(uint64_t(n - kMaxInlineLength - 1), 6);
-            bw.put(p.neg, 1);
-        }
-        if (n > 1) {
-            const uint64_t rest = p.mag & ((uint64_t{1} << (n - 1)) - 1);
-            if (n - 1 > 48) {
-                bw.put(rest & 0xFFFFFF, 24);
-                bw.put(rest >> 24, n - 1 - 24);
-            } else {
-                bw.put(rest, n - 1);
-            }
-        }
+        encode_one(e, bw, *m, p, UsePrev ? wprev : 0);
         wprev = LatticeView::stored(p.mag);
     }
     e.finish();
@@ -431,25 +437,6 @@ uint64_t decode_symbols_pair(const std::vector<PointRecord>& a, const SymbolStre
 
 [[gnu::always_inline]] inline int trit(const PointRecord& p) { return p.mag == 0 ? 1 : p.neg ? 0 : 2; }
 
-void encode_one(SymbolEncoder& e, BitWriter& bw, SymbolModels& m, const PointRecord& p) {
-    const int n = rc::bit_length(p.mag);
-    const int sym = n == 0 ? 0 : n <= kMaxInlineLength ? (p.neg ? kMaxInlineLength + n : n) : kSymbols - 1;
-    e.encode(m.m[p.cls][bucket_of(p, 0)], sym);
-    if (sym == kSymbols - 1) {
-        bw.put(uint64_t(n - kMaxInlineLength - 1), 6);
-        bw.put(p.neg, 1);
-    }
-    if (n > 1) {
-        const uint64_t rest = p.mag & ((uint64_t{1} << (n - 1)) - 1);
-        if (n - 1 > 48) {
-            bw.put(rest & 0xFFFFFF, 24);
-            bw.put(rest >> 24, n - 1 - 24);
-        } else {
-            bw.put(rest, n - 1);
-        }
-    }
-}
-
 constexpr int kDuoEscape = 9;
 
 SymbolStreams encode_duos(const std::vector<PointRecord>& pts) {
@@ -463,10 +450,10 @@ SymbolStreams encode_duos(const std::vector<PointRecord>& pts) {
             const PointRecord& q = pts[i + 1];
             const bool small = p.mag <= 1 && q.mag <= 1;
             e.encode(duo->m[p.cls][bucket_of(p, 0)], small ? 3 * trit(p) + trit(q) : kDuoEscape);
-            if (!small) encode_one(e, bw, *single, p), encode_one(e, bw, *single, q);
+            if (!small) encode_one(e, bw, *single, p, 0), encode_one(e, bw, *single, q, 0);
             i += 2;
         } else {
-            encode_one(e, bw, *single, p);
+            encode_one(e, bw, *single, p, 0);
             i += 1;
         }
     }
