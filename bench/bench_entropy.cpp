@@ -19,10 +19,19 @@
 //              16-entry distribution per context (one range-coder step per
 //              point, no data-dependent branch), sign and mantissa bits as raw
 //              bits in a second stream read 64 bits at a time.
+//   duo        symbols, with one symbol for two small residuals of a row;
+//   tab        static tables and rANS: the symbols of sym-np from fixed
+//              frequency tables (per chunk, or per cycle shared by its
+//              chunks), two interleaved states, raw bits read without a
+//              branch; decoded from a context byte per point, so it times the
+//              entropy stage alone (the other coders read 40-byte records);
+//   bin-2d     today's binary coder with the spread's and the neighbours'
+//              mean's buckets as two context dimensions (size only).
 // Usage: bench_entropy [DATA_DIR] [--reps N]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -103,6 +112,40 @@ std::vector<std::byte> encode_binary(const std::vector<PointRecord>& pts, int w)
     for (const auto& p : pts) {
         if (p.row_start) wprev = 0;
         rc::encode_int(e, m->m[p.cls][bucket_of(p, wprev)], p.mag, p.neg, w);
+        wprev = LatticeView::stored(p.mag);
+    }
+    e.finish();
+    return out;
+}
+
+/// A two-dimensional context: the prediction spread's bucket and the
+/// neighbours' mean's bucket apart, each capped at 7 (8 x 8 per class), where
+/// today's coder takes one bucket of spread + 2 mean. Caps of 5, 9 and 11 were
+/// tried: 7 is as good as any within 0.5 % on every volume but headsq (-1.6 % at 9).
+constexpr int kCap2d = 7;
+[[gnu::always_inline]] inline int context_2d(const PointRecord& p, uint32_t wprev) {
+    if (p.full_mean) return p.given_bucket;  // class 3: a bucket given whole, as in 1d
+    const int sb = std::min(kCap2d, activity_bucket(p.spread));
+    const int mb = std::min(
+        kCap2d, activity_bucket(2 * LatticeView::mean_with_prev(LatticeView::Others{p.others_sum, p.others_n}, wprev)));
+    return (kCap2d + 1) * sb + mb;
+}
+
+/// Today's binary coder with a two-dimensional context: the spread's bucket and
+/// the neighbours' mean's bucket apart (8 x 8 per class) instead of one bucket
+/// of their sum (size only: does the sum lose what the static tables found?).
+std::vector<std::byte> encode_binary_2d(const std::vector<PointRecord>& pts, int w) {
+    std::vector<std::byte> out;
+    rc::Encoder e(out);
+    struct Models {
+        rc::IntModel m[4][64];
+    };
+    auto m = std::make_unique<Models>();
+    uint32_t wprev = 0;
+    for (const auto& p : pts) {
+        if (p.row_start) wprev = 0;
+        const int c = context_2d(p, wprev);
+        rc::encode_int(e, m->m[p.cls][c], p.mag, p.neg, w);
         wprev = LatticeView::stored(p.mag);
     }
     e.finish();
@@ -486,6 +529,206 @@ uint64_t decode_duos(const std::vector<PointRecord>& pts, const SymbolStreams& i
     return check;
 }
 
+// ---- prototype: static tables, rANS (no adaptation) ----
+//
+// The symbols of sym-np (bit length with the sign folded in, escape beyond 7),
+// but from fixed frequency tables, one per context (class, activity bucket),
+// read by a table-driven rANS decoder: per point a mask, one load, a multiply,
+// and a 16-bit refill without a branch. Two states alternate point by point, so
+// successive points' chains overlap (the contexts do not use the previous point).
+// Tables come from the chunk itself ("tab", their cost counted in the chunk) or
+// from all chunks of its cycle ("tab-cyc", their cost counted once per cycle: a
+// section a query reads beside the chunks, as it reads the header).
+
+constexpr int kTabBits = 11;  // probabilities in 1/2048
+constexpr uint32_t kTabTotal = 1u << kTabBits;
+constexpr uint32_t kRansLow = 1u << 16;  // state in [2^16, 2^32); refills of 16 bits
+constexpr int kContexts = 256;
+
+struct StaticTables {
+    // Per context: symbol frequencies (sum kTabTotal when the context is used) and
+    // starts; the decoder's slot table gives (symbol, freq, slot - start) per slot.
+    std::vector<std::array<uint16_t, kSymbols>> freq, start;
+    // Per slot: freq | (slot - start) << 12 | symbol << 23, so a context's 2048
+    // slots take 8 KB and the hot ones stay in the first cache levels.
+    std::vector<uint32_t> slots;  // kContexts * kTabTotal
+    std::vector<uint8_t> used;
+    std::size_t cost_bytes = 0;  // an estimate of the tables' serialized size
+};
+
+/// A point's static context, without the row's previous point: class and
+/// today's bucket (1d, 64 contexts) or class and context_2d (256 contexts).
+template <bool TwoD>
+inline int context_of(const PointRecord& p) {
+    return TwoD ? 64 * p.cls + context_2d(p, 0) : p.cls * 16 + bucket_of(p, 0);
+}
+
+inline int symbol_of(const PointRecord& p) {
+    const int n = rc::bit_length(p.mag);
+    return n == 0 ? 0 : n <= kMaxInlineLength ? (p.neg ? kMaxInlineLength + n : n) : kSymbols - 1;
+}
+
+template <bool TwoD>
+StaticTables make_tables(const std::vector<const std::vector<PointRecord>*>& chunks) {
+    std::vector<std::array<uint64_t, kSymbols>> count(kContexts);
+    for (auto& c : count) c.fill(0);
+    for (const auto* pts : chunks)
+        for (const auto& p : *pts) ++count[size_t(context_of<TwoD>(p))][size_t(symbol_of(p))];
+    StaticTables t;
+    t.freq.assign(kContexts, {});
+    t.start.assign(kContexts, {});
+    t.used.assign(kContexts, 0);
+    t.slots.resize(size_t(kContexts) * kTabTotal);
+    const int contexts = TwoD ? kContexts : 64;
+    std::size_t bits = std::size_t(contexts);  // a used flag per context
+    for (int c = 0; c < contexts; ++c) {
+        uint64_t total = 0;
+        for (auto n : count[size_t(c)]) total += n;
+        if (total == 0) continue;
+        t.used[size_t(c)] = 1;
+        auto& f = t.freq[size_t(c)];
+        int64_t sum = 0, biggest = 0;
+        for (int s = 0; s < kSymbols; ++s) {
+            const uint64_t n = count[size_t(c)][size_t(s)];
+            f[size_t(s)] = n == 0 ? 0 : uint16_t(std::max<uint64_t>(1, (n * kTabTotal + total / 2) / total));
+            sum += f[size_t(s)];
+            if (f[size_t(s)] > f[size_t(biggest)]) biggest = s;
+        }
+        // Fix the sum on the most frequent symbol (it can absorb it: the others are >= 1).
+        f[size_t(biggest)] = uint16_t(int64_t(f[size_t(biggest)]) + int64_t(kTabTotal) - sum);
+        uint16_t at = 0;
+        for (int s = 0; s < kSymbols; ++s) {
+            t.start[size_t(c)][size_t(s)] = at;
+            for (uint32_t k = 0; k < f[size_t(s)]; ++k)
+                t.slots[size_t(c) * kTabTotal + at + k] = uint32_t(f[size_t(s)]) | k << 12 | uint32_t(s) << 23;
+            at = uint16_t(at + f[size_t(s)]);
+            // Serialized: a presence bit per symbol, then the frequency as an
+            // Elias-gamma code (the last present symbol's is implied).
+            bits += 1;
+            if (f[size_t(s)] > 0) bits += 2 * size_t(rc::bit_length(f[size_t(s)])) - 1;
+        }
+    }
+    t.cost_bytes = (bits + 7) / 8;
+    return t;
+}
+
+/// Bytes: the rANS stream (written backwards, read forwards) and the raw bits.
+template <bool TwoD>
+SymbolStreams encode_static(const std::vector<PointRecord>& pts, const StaticTables& t) {
+    // Raw bits go forwards in point order; the symbols are coded in reverse.
+    BitWriter bw;
+    for (const auto& p : pts) {
+        const int n = rc::bit_length(p.mag);
+        if (n > kMaxInlineLength) bw.put(uint64_t(n - kMaxInlineLength - 1), 6), bw.put(p.neg, 1);
+        if (n > 1) {
+            const uint64_t rest = p.mag & ((uint64_t{1} << (n - 1)) - 1);
+            if (n - 1 > 48) bw.put(rest & 0xFFFFFF, 24), bw.put(rest >> 24, n - 1 - 24);
+            else bw.put(rest, n - 1);
+        }
+    }
+    bw.finish();
+    std::vector<uint16_t> words;  // in reverse order of reading
+    uint32_t x[2] = {kRansLow, kRansLow};
+    for (std::size_t i = pts.size(); i-- > 0;) {
+        const PointRecord& p = pts[i];
+        const int c = context_of<TwoD>(p), s = symbol_of(p);
+        const uint32_t f = t.freq[size_t(c)][size_t(s)], st = t.start[size_t(c)][size_t(s)];
+        uint32_t& xi = x[i & 1];
+        const uint64_t x_max = (uint64_t(kRansLow >> kTabBits) << 16) * f;
+        if (xi >= x_max) words.push_back(uint16_t(xi)), xi >>= 16;
+        xi = ((xi / f) << kTabBits) + (xi % f) + st;
+    }
+    // The decoder starts with state 0 then 1: push 1 first (it is read last of the two).
+    for (int k = 1; k >= 0; --k) words.push_back(uint16_t(x[k] >> 16)), words.push_back(uint16_t(x[k]));
+    SymbolStreams out;
+    out.symbols.resize(2 * words.size() + 2);  // +2: the refill's look-ahead
+    std::size_t o = 0;
+    for (std::size_t i = words.size(); i-- > 0;) {
+        std::memcpy(out.symbols.data() + o, &words[i], 2);
+        o += 2;
+    }
+    out.symbols.resize(o);
+    out.symbols.push_back(std::byte{0}), out.symbols.push_back(std::byte{0});
+    out.bits = std::move(bw.out);
+    return out;
+}
+
+/// Raw bits, refilled on every read without a branch (at least 56 bits valid
+/// after a refill), so a point's raw bits cost no misprediction.
+struct BranchlessBits {
+    const std::byte *p, *end;
+    uint64_t acc = 0;
+    int n = 0;
+    [[gnu::always_inline]] void refill() {
+        uint64_t w = 0;
+        if (end - p >= 8) [[likely]] std::memcpy(&w, p, 8);
+        acc |= w << n;
+        p += (63 - n) >> 3;
+        n |= 56;
+    }
+    [[gnu::always_inline]] uint64_t take(int bits) {  // bits <= n
+        const uint64_t v = acc & ((uint64_t{1} << bits) - 1);
+        acc >>= bits;
+        n -= bits;
+        return v;
+    }
+};
+
+template <int K>
+[[gnu::always_inline]] inline uint64_t static_point(uint8_t ctx, uint32_t& xi, const std::byte*& p,
+                                                     const uint32_t* slots, BranchlessBits& br) {
+    const uint32_t e = slots[size_t(ctx) * kTabTotal + (xi & (kTabTotal - 1))];
+    xi = (e & 0xFFF) * (xi >> kTabBits) + ((e >> 12) & 0x7FF);
+    // Refill without a branch: the word is always loaded, kept when needed.
+    const uint32_t need = xi < kRansLow ? 1u : 0u;
+    uint16_t w;
+    std::memcpy(&w, p, 2);
+    xi = (xi << (16 * need)) | (uint32_t(w) & (0u - need));
+    p += 2 * need;
+    const int sym = int(e >> 23);
+    int n = sym > kMaxInlineLength ? sym - kMaxInlineLength : sym;
+    bool neg = sym > kMaxInlineLength;
+    br.refill();
+    if (sym == kSymbols - 1) [[unlikely]] {
+        n = kMaxInlineLength + 1 + int(br.take(6));
+        neg = br.take(1) != 0;
+        br.refill();
+        if (n > 49) {
+            const uint64_t lo = br.take(24);
+            br.refill();
+            return ((uint64_t{1} << (n - 1)) | lo | (br.take(n - 1 - 24) << 24)) + neg;
+        }
+    }
+    const uint64_t rest = br.take(std::max(n - 1, 0));
+    const uint64_t mag = n > 0 ? (uint64_t{1} << (n - 1)) | rest : 0;
+    return mag + neg;
+}
+
+/// `ctx`: each point's context, precomputed (1 byte a point: the bench then
+/// times the entropy stage, not the streaming of 40-byte point records, which
+/// bounded the large volumes by memory bandwidth).
+uint64_t decode_static(const std::vector<uint8_t>& pts, const SymbolStreams& in, const StaticTables& t) {
+    const std::byte* p = in.symbols.data();
+    auto word32 = [&] {
+        uint16_t lo, hi;
+        std::memcpy(&lo, p, 2);
+        std::memcpy(&hi, p + 2, 2);
+        p += 4;
+        return uint32_t(lo) | uint32_t(hi) << 16;
+    };
+    uint32_t x0 = word32(), x1 = word32();
+    BranchlessBits br{in.bits.data(), in.bits.data() + in.bits.size()};
+    const uint32_t* slots = t.slots.data();
+    uint64_t check = 0;
+    std::size_t i = 0;
+    for (; i + 1 < pts.size(); i += 2) {
+        check += static_point<0>(pts[i], x0, p, slots, br);
+        check += static_point<1>(pts[i + 1], x1, p, slots, br);
+    }
+    if (i < pts.size()) check += static_point<0>(pts[i], x0, p, slots, br);
+    return check;
+}
+
 template <class F>
 double best_seconds(int reps, F&& f) {
     double best = 1e30;
@@ -500,10 +743,57 @@ double best_seconds(int reps, F&& f) {
 struct Row {
     std::string name;
     uint64_t points = 0, binary_bytes = 0, symbol_bytes = 0, noprev_bytes = 0, duo_bytes = 0;
+    uint64_t tab_bytes = 0, tabcyc_bytes = 0, tab2d_bytes = 0, bin2d_bytes = 0;  // static tables: the chunk's own, the cycle's
     uint64_t zeros = 0, in_zero_blocks = 0;  // zero residuals; points in all-zero blocks of 8 of a row
     double binary_s = 0, pair_s = 0, symbol_s = 0, symbol_pair_s = 0, noprev_s = 0, noprev_pair_s = 0, duo_s = 0;
+    double tab_s = 0, tabcyc_s = 0, tab2d_s = 0;
     bool same = true;
 };
+
+struct StaticResult {
+    uint64_t bytes = 0, check = 0;
+    double seconds = 0;
+};
+
+/// The static-table coder with 1d or 2d contexts, its tables from each chunk
+/// (their cost in the chunk) or from all chunks of a cycle (their cost once
+/// per cycle). Decoded from each point's precomputed context byte.
+template <bool TwoD>
+StaticResult measure_static(const std::vector<std::vector<PointRecord>>& chunks, const std::vector<int>& cycle_of,
+                            bool per_cycle, int reps) {
+    StaticResult r;
+    std::vector<StaticTables> tables(chunks.size());
+    std::vector<const StaticTables*> table_of(chunks.size());
+    std::vector<StaticTables> of_cycle(64);
+    if (per_cycle) {
+        for (int cyc = 0; cyc < 64; ++cyc) {
+            std::vector<const std::vector<PointRecord>*> of;
+            for (std::size_t i = 0; i < chunks.size(); ++i)
+                if (cycle_of[i] == cyc) of.push_back(&chunks[i]), table_of[i] = &of_cycle[size_t(cyc)];
+            if (of.empty()) continue;
+            of_cycle[size_t(cyc)] = make_tables<TwoD>(of);
+            r.bytes += of_cycle[size_t(cyc)].cost_bytes;
+        }
+    } else {
+        for (std::size_t i = 0; i < chunks.size(); ++i) {
+            tables[i] = make_tables<TwoD>({&chunks[i]});
+            table_of[i] = &tables[i];
+            r.bytes += tables[i].cost_bytes;
+        }
+    }
+    std::vector<SymbolStreams> streams;
+    std::vector<std::vector<uint8_t>> ctx(chunks.size());
+    for (std::size_t i = 0; i < chunks.size(); ++i) {
+        streams.push_back(encode_static<TwoD>(chunks[i], *table_of[i]));
+        r.bytes += streams.back().size() - 2;  // -2: the refill's look-ahead is not data
+        for (const auto& p : chunks[i]) ctx[i].push_back(uint8_t(context_of<TwoD>(p)));
+    }
+    r.seconds = best_seconds(reps, [&] {
+        r.check = 0;
+        for (std::size_t i = 0; i < chunks.size(); ++i) r.check += decode_static(ctx[i], streams[i], *table_of[i]);
+    });
+    return r;
+}
 
 template <class T>
 Row measure(const std::string& name, const Volume& vol, int reps) {
@@ -511,8 +801,10 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
     const Geometry G = geometry_of(model.domain(), 4);
     const T* v = model.field().as<T>();
     std::vector<std::vector<PointRecord>> chunks;
+    std::vector<int> cycle_of;
     for (const HtChunk& c : chunk_list(G)) {
         if (c.points == 0) continue;
+        cycle_of.push_back(c.cycle);
         std::vector<PointRecord> pts;
         pts.reserve(c.points);
         thread_local std::vector<uint32_t> storage;
@@ -529,6 +821,7 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
     for (const auto& pts : chunks) {
         row.points += pts.size();
         bin.push_back(encode_binary(pts, w));
+        row.bin2d_bytes += encode_binary_2d(pts, w).size();
         sym.push_back(encode_symbols<true>(pts));
         sym0.push_back(encode_symbols<false>(pts));
         row.binary_bytes += bin.back().size();
@@ -589,7 +882,13 @@ Row measure(const std::string& name, const Volume& vol, int reps) {
             i = e;
         }
     }
-    row.same = c1 == expect && c2 == expect && c3 == expect && c4 == expect && c5 == expect && c6 == expect && c7 == expect;
+    const StaticResult tab = measure_static<false>(chunks, cycle_of, false, reps);
+    const StaticResult tabcyc = measure_static<false>(chunks, cycle_of, true, reps);
+    const StaticResult tab2d = measure_static<true>(chunks, cycle_of, true, reps);
+    row.tab_bytes = tab.bytes, row.tabcyc_bytes = tabcyc.bytes, row.tab2d_bytes = tab2d.bytes;
+    row.tab_s = tab.seconds, row.tabcyc_s = tabcyc.seconds, row.tab2d_s = tab2d.seconds;
+    row.same = c1 == expect && c2 == expect && c3 == expect && c4 == expect && c5 == expect && c6 == expect &&
+               c7 == expect && tab.check == expect && tabcyc.check == expect && tab2d.check == expect;
     return row;
 }
 
@@ -619,9 +918,11 @@ int main(int argc, char** argv) {
     std::printf("%-34s %9s %9s %7s %7s %7s | %7s %7s %7s %7s %7s %7s %7s %5s | %6s %6s\n", "volume", "points",
                 "binary_B", "sym", "sym-np", "duo", "binary", "bin-x2", "sym", "sym-x2", "sym-np", "np-x2", "duo", "check",
                 "zero%", "z8%");
+    std::vector<Row> rows;
     for (const auto& [name, vol] : vols) {
         Row r;
         dispatch_value_type(vol.type, [&](auto tv) { r = measure<decltype(tv)>(name, vol, reps); });
+        rows.push_back(r);
         const double n = double(r.points) / 1e9;
         std::printf("%-34s %9llu %9llu %6.3fx %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %5s | %6.1f %6.1f\n",
                     r.name.c_str(),
@@ -635,5 +936,18 @@ int main(int argc, char** argv) {
                 "np: contexts without the row's previous point, so a point's model does not wait for it;\n"
                 "duo: sym-np with one symbol for two successive points of a row whose residuals are -1, 0 or +1);\n"
                 "zero%%: points with a zero residual; z8%%: points in blocks of 8 along a row whose residuals are all zero\n");
+    std::printf("\nStatic tables and rANS, decoded from a context byte per point (tab: 1d contexts, tables from\n"
+                "the chunk, their cost in it; tab-cyc: 1d, tables from all chunks of the cycle, their cost once\n"
+                "per cycle; tab-2d: as tab-cyc with 2d contexts); bin-2d: today's adaptive binary coder with 2d\n"
+                "contexts (size only); sizes relative to binary, ns per point, one thread\n");
+    std::printf("%-34s %9s %7s %7s %7s %7s %7s | %7s %7s %7s %7s %7s\n", "volume", "binary_B", "bin-2d", "duo", "tab",
+                "tab-cyc", "tab-2d", "binary", "duo", "tab", "tab-cyc", "tab-2d");
+    for (const Row& r : rows) {
+        const double n = double(r.points) / 1e9, b = double(r.binary_bytes);
+        std::printf("%-34s %9llu %6.3fx %6.3fx %6.3fx %6.3fx %6.3fx | %7.2f %7.2f %7.2f %7.2f %7.2f\n", r.name.c_str(),
+                    (unsigned long long)r.binary_bytes, double(r.bin2d_bytes) / b, double(r.duo_bytes) / b,
+                    double(r.tab_bytes) / b, double(r.tabcyc_bytes) / b, double(r.tab2d_bytes) / b, r.binary_s / n,
+                    r.duo_s / n, r.tab_s / n, r.tabcyc_s / n, r.tab2d_s / n);
+    }
     return 0;
 }
