@@ -6,7 +6,9 @@
 // the vectors' raw volumes (SOURCE_DATE_EPOCH=0): ht_mt_v3.2_u8_9x6x5_compact from
 // ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
 // ht_v3_i16_17x17x17_samples.raw --max-error 1%. The format 3.3 vectors (lattice chunks) are
-// among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3).
+// among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3) and the
+// 3.6 ones (range-2d chunks). Seeds written by an earlier version are kept as they are:
+// after adding seeds, copy only the new files from a scratch directory.
 #include <zlib.h>
 
 #include <cstdio>
@@ -134,6 +136,9 @@ int main(int argc, char** argv) {
     put(root / "ht_sections/v3_u8_9x9x5_sparse", ht_parts(sparse({9, 9, 5}), 1, false));
     put(root / "ht_sections/v3_u8_9x9x5_constant", ht_parts(sparse({9, 9, 5}), 1, false, 1));
     put(root / "ht_sections/v3_u16_9x5x5_linear", ht_parts(linear({9, 5, 5}), 1, false, 3));
+    // Format 3.6: range-2d (mode 5) forced on the field chunks.
+    put(root / "ht_sections/v3.6_u8_9x9x5_range2d", ht_parts(sample({9, 9, 5}, ValueType::U8, 4), 1, false, 5));
+    put(root / "ht_sections/v3.6_i16_9x9x9_b2_range2d", ht_parts(sample({9, 9, 9}, ValueType::I16, 5), 2, false, 5));
     // MT coding 3 (format 3.4): stored bytes (mode 0) and header + raw payload (mode 1),
     // with and without the field. (The coding-1 seeds, *_coding1_*, were written by the
     // 2.1 writer and the coding-2 ones, *_coding2_*, by the 3.0-3.3 writers; both are kept.)

@@ -118,6 +118,7 @@ int run_convert(const ConvertArgs& a) {
     wo.mt_error_bits = a.mt_error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
     wo.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
+    wo.range_2d = a.table != "full";  // "full": for older readers, so no 3.6 chunk mode either
     if (max_error && max_error->value > 0) {
         // Percent of the original's range: one more read when streaming.
         const std::array<double, 2> range =
@@ -218,8 +219,8 @@ const CommandRegistration convert_registration{Command{
             ->group(g);
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--table", a->table,
-                       "Section table layout: compact (format 3.2, smallest) or full (48 bytes a section: "
-                       "a 3.0/3.1 file that older tetlod readers open; the same sections)")
+                       "Section table layout: compact (format 3.2, smallest) or full (48 bytes a section, "
+                       "and no range-2d chunks of format 3.6: a 3.0/3.1 file that older tetlod readers open)")
             ->capture_default_str()
             ->check(CLI::IsMember({"compact", "full"}))
             ->group(g);

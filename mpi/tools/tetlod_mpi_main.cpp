@@ -207,6 +207,7 @@ int run(const Args& a, int rank, int size) {
     o.write.brick_log2 = a.brick_log2;
     o.write.error_bits = a.error_bits;
     o.write.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
+    o.write.range_2d = a.table != "full";  // "full": for older readers, so no 3.6 chunk mode either
     o.write.memory_bytes = default_memory_budget();
     if (!a.memory.empty()) {
         std::string why;
@@ -277,7 +278,7 @@ int main_mpi(int argc, char** argv, int rank, int size) {
                         "else 4 (as tetlod convert)")
         ->capture_default_str()
         ->check(CLI::Range(0, 16));
-    convert->add_option("--table", a.table, "Section table layout: compact (format 3.2) or full (a 3.0 file for older readers)")
+    convert->add_option("--table", a.table, "Section table layout: compact (format 3.2) or full (a 3.0 file for older readers, no range-2d chunks)")
         ->capture_default_str()
         ->check(CLI::IsMember({"compact", "full"}));
     convert->add_option("--error-bits", a.error_bits, "Mantissa bits of stored error bounds")

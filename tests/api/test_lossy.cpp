@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,13 @@ namespace {
 
 std::string tmp(const std::string& name) {
     return (std::filesystem::path(TETLOD_TEST_TMP) / (std::to_string(::getpid()) + "_" + name)).string();
+}
+
+/// Whether a field chunk uses the range-2d mode (format 3.6, spec §6.4).
+bool uses_range2d(const ContainerInfo& info) {
+    return std::any_of(info.sections.begin(), info.sections.end(), [](const tlod::SectionInfo& s) {
+        return s.type == tlod::kSectionHtField && tlod::section_mode(s.flags) == 5;
+    });
 }
 
 std::vector<char> file_bytes(const std::string& path) {
@@ -102,8 +110,11 @@ TEST(Lossy, EveryTypeRoundTripsWithinE) {
                 EXPECT_EQ(beyond(v, d, info.max_error), 0);  // 0: bit-exact values
                 EXPECT_EQ(info.header.version_major, 3);
                 // The compact table (3.2), lossy or not; 3.3 when a lossy field uses the
-                // lattice chunk mode (spec §6.4), which a lossless file never does.
-                EXPECT_EQ(info.header.version_minor, info.max_error > 0 && info.header.version_minor == 3 ? 3 : 2);
+                // lattice chunk mode (spec §6.4), which a lossless file never does; 3.6
+                // when a field chunk uses the range-2d mode, in either.
+                EXPECT_EQ(info.header.version_minor, uses_range2d(info)                                ? 6
+                                                     : info.max_error > 0 && info.header.version_minor == 3 ? 3
+                                                                                                           : 2);
                 EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, info.max_error > 0);
                 if (field == test::Field::Smooth && stated >= double(range_of(v)) / 100) {
                     EXPECT_GT(info.max_error, 0);  // a smooth field at 1%: the lossy file wins
@@ -150,14 +161,15 @@ TEST(Lossy, ZeroIsLosslessByteForByte) {
     EXPECT_EQ(file_bytes(a), file_bytes(b));
     const ContainerInfo info = inspect_container(a).take();
     EXPECT_EQ(info.max_error, 0);
-    EXPECT_EQ(info.header.version_minor, 2);  // the compact table
+    EXPECT_EQ(info.header.version_minor, uses_range2d(info) ? 6 : 2);  // the compact table
     EXPECT_FALSE(info.header.required_features & tlod::kFeatureLossy);
     // With the full table: the 3.0 file, as before format 3.1 and 3.2.
     ContainerWriteOptions full = lossy(0);
     full.table = tlod::TableLayout::full;
     const std::string c = tmp("zero_c.tlod");
     write_container(Volume(v), c, full);
-    EXPECT_EQ(inspect_container(c).take().header.version_minor, 0);
+    const ContainerInfo full_info = inspect_container(c).take();
+    EXPECT_EQ(full_info.header.version_minor, uses_range2d(full_info) ? 6 : 0);
     const Volume d = decode_container(a).take();
     EXPECT_TRUE(std::equal(d.data.begin(), d.data.end(), v.data.begin(), v.data.end()));
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <random>
 #include <string>
 
 #include "tetlod/codecs/error_quantizer.hpp"
@@ -71,7 +72,7 @@ class ChunkModes : public ::testing::TestWithParam<ValueType> {};
 
 TEST_P(ChunkModes, EveryModeBitExact) {
     for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
-        for (int mode : {-1, 0, 1, 2, 3}) {
+        for (int mode : {-1, 0, 1, 2, 3, 5}) {
             const Volume v = make_shaped({11, 9, 7}, GetParam(), shape);
             const HtModel m = HtModel::build(v);
             const auto bytes = encode(m, v, mode, 1);
@@ -94,7 +95,12 @@ TEST_P(ChunkModes, EveryModeBitExact) {
             if (mode == 2) EXPECT_GT(em[2], 0);
             if (mode == 1 && shape == Shape::Constant) EXPECT_GT(fm[1] + em[1], 0);
             if (mode == 3 && shape == Shape::Linear) EXPECT_GT(fm[3], 0);
-            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + em[1] + em[2], 0);
+            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + fm[5] + em[1] + em[2], 0);
+            // Range-2d (format 3.6): every field chunk with points, never an error chunk.
+            if (mode == 5) EXPECT_EQ(fm[0] + fm[1] + fm[2] + fm[3], 0);
+            if (mode == 5) EXPECT_GT(fm[5], 0);
+            EXPECT_EQ(em[5], 0);
+            EXPECT_EQ(r->header().version_minor, fm[5] > 0 ? 6 : 2) << "mode " << mode;
             // (Error chunks at the far faces of B mix 0 with +inf bounds: range coded.)
             if (mode == -1 && shape == Shape::Constant) EXPECT_EQ(fm[0], 0);
         }
@@ -243,6 +249,70 @@ TEST(ChunkModesHostile, RefusedWithSpecificErrors) {
         ASSERT_NE(empty, 0u);
         set_mode(tt[empty], 1);
         expect_failure(tt, ErrorCode::CorruptData, "empty chunk");
+    }
+}
+
+TEST(ChunkModesHostile, Range2dRefusedWithSpecificErrors) {
+    const Volume v = make_shaped({11, 9, 7}, ValueType::I16, Shape::Noisy);
+    const HtModel m = HtModel::build(v);
+    const auto good = sections_of(encode(m, v, 5));
+    const std::size_t fs = find_mode(good, kSectionHtField, 5);
+    std::size_t es = 0;
+    for (std::size_t i = 0; i < good.size(); ++i)
+        if (good[i].info.type == kSectionHtErrors && good[i].info.raw_size > 0) es = i;
+    ASSERT_NE(es, 0u);
+    ASSERT_EQ(open_failure(rebuild(good)).code, ErrorCode::Ok);
+    {  // a field mode: refused on an error chunk
+        auto ss = good;
+        set_mode(ss[es], 5);
+        ss[es].info.flags &= ~kSectionZstd;
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 5 for error codes");
+    }
+    {  // flagged ZSTD
+        auto ss = good;
+        ss[fs].info.flags |= kSectionZstd;
+        ss[fs].bytes = zstd_compress(ss[fs].bytes, 1);
+        expect_failure(ss, ErrorCode::CorruptData, "must not be zstd");
+    }
+    {  // too short for any stream: the range rules, from the table
+        auto ss = good;
+        ss[fs].bytes.resize(3);
+        ss[fs].info.raw_size = 3;
+        expect_failure(ss, ErrorCode::CorruptData, "coded size 3");
+    }
+    {  // truncated by one byte: the stream does not end at its last byte
+        auto ss = good;
+        ss[fs].bytes.pop_back();
+        ss[fs].info.raw_size -= 1;
+        EXPECT_EQ(open_failure(rebuild(ss)).code, ErrorCode::CorruptData);
+    }
+    {  // mode 0's contexts read from mode 5's stream (the largest chunk: in a small one
+       // every point may meet a fresh model under either set, and decode the same)
+        auto ss = good;
+        std::size_t big = fs;
+        for (std::size_t i = 0; i < ss.size(); ++i)
+            if (ss[i].info.type == kSectionHtField && ss[i].info.raw_size > ss[big].info.raw_size) big = i;
+        ASSERT_EQ(section_mode(ss[big].info.flags), 5u);
+        set_mode(ss[big], 0);
+        const Failure f = open_failure(rebuild(ss));
+        if (f.code == ErrorCode::Ok) {
+            auto r = ContainerReader::from_memory(rebuild(ss));
+            EXPECT_NE(decode_ht(*r)->field.data, v.data);
+        }
+    }
+    // Random streams and flipped bytes: a clean error or a field, never a crash
+    // (run under ASan / UBSan in the sanitizer build).
+    std::mt19937 rng(11);
+    for (int trial = 0; trial < 200; ++trial) {
+        auto ss = good;
+        auto& b = ss[fs].bytes;
+        if (trial % 2 == 0) {
+            for (auto& x : b) x = std::byte(rng() & 0xFF);
+        } else {
+            b[rng() % b.size()] ^= std::byte(1u << (rng() % 8));
+        }
+        const Failure f = open_failure(rebuild(ss));
+        EXPECT_TRUE(f.code == ErrorCode::Ok || f.code == ErrorCode::CorruptData) << f.message;
     }
 }
 

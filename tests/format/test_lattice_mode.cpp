@@ -273,10 +273,10 @@ TEST(LatticeModeHostile, RefusedWithSpecificErrors) {
         const Failure got = decode_failure(f);
         EXPECT_EQ(got.code, ErrorCode::CorruptData) << got.message;
     }
-    {  // an unknown mode above it
+    {  // an unknown mode above the last one (range-2d, 5, since 3.6)
         File f = good;
-        set_mode(f.sections[ls], 5);
-        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 5");
+        set_mode(f.sections[ls], 6);
+        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 6");
     }
     // Random streams and flipped bytes: a clean error or a field, never a crash
     // (run under ASan / UBSan in the sanitizer build).

@@ -80,3 +80,40 @@ TEST(InfoCli, JsonCodersAddUpToTheFile) {
         EXPECT_EQ(s.contains("mode"), type == "HT_FIELD" || type == "HT_ERRORS") << s;
     }
 }
+
+// Format 3.6: where the two-dimensional contexts code a field chunk smaller the
+// writer takes them (range-2d, spec §6.4, §7.6) and the file says 3.6; info names
+// the coder; the bytes decode to the volume. `--table full` is for older readers:
+// a 3.0 file, no range-2d chunk.
+TEST(InfoCli, Range2dChunksMakeA36FileAndTableFullKeepsThemOut) {
+    const std::string raw = tmp("range2d.raw");
+    ASSERT_EQ(run("sample multiscale '" + raw + "' --size 33").code, 0);
+    auto convert = [&](const std::string& name, const std::string& extra) {
+        const std::string out = tmp(name + ".tlod");
+        const CliRun c = run("convert '" + raw + "' '" + out + "' --dims 33,33,33 --dtype u8 -f " + extra);
+        EXPECT_EQ(c.code, 0) << c.err;
+        return out;
+    };
+    auto range2d_sections = [](const nlohmann::json& j) {
+        int n = 0;
+        for (const auto& s : j["sections"]) n += s.value("mode", "") == "range-2d";
+        return n;
+    };
+    for (const std::string& extra : {std::string(), std::string("--table full")}) {
+        const std::string path = convert(extra.empty() ? "range2d_default" : "range2d_full", extra);
+        const CliRun j = run("info --json '" + path + "'");
+        ASSERT_EQ(j.code, 0) << j.err;
+        const auto info = nlohmann::json::parse(j.out);
+        if (extra.empty()) {
+            EXPECT_GT(range2d_sections(info), 0) << j.out;
+            EXPECT_EQ(info["format_version"], "3.6");
+            EXPECT_TRUE(contains(run("info '" + path + "'").out, "ht-range-2d"));
+        } else {
+            EXPECT_EQ(range2d_sections(info), 0) << j.out;
+            EXPECT_EQ(info["format_version"], "3.0");
+        }
+        const std::string back = tmp("range2d_back.raw");
+        ASSERT_EQ(run("decode '" + path + "' '" + back + "' -f -q").code, 0);
+        EXPECT_EQ(slurp(back), slurp(raw)) << extra;
+    }
+}

@@ -97,6 +97,10 @@ struct ContainerWriteOptions {
     /// smallest) or full (48-byte entries: a 3.0 file, 3.1 when lossy, that
     /// readers older than 3.2 read). The sections' bytes are the same.
     tlod::TableLayout table = tlod::TableLayout::compact;
+    /// HT field chunks may use range-2d (chunk mode 5, format 3.6, spec §7.6)
+    /// where it is smaller. false, with the full table, writes a file that
+    /// 3.0/3.1 readers open, byte for byte what they wrote.
+    bool range_2d = true;
 };
 
 struct ContainerWriteSummary {

@@ -108,6 +108,7 @@ HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
     e.brick_log2 = o.brick_log2;
     e.error_mantissa_bits = o.error_bits;
     e.table = o.table;
+    e.range_2d = o.range_2d;
     return e;
 }
 

@@ -8,7 +8,9 @@
 //   zero-residual  (field only) every value equals its prediction: no bytes;
 //   lattice        (field only, lossy files, format 3.3) every value is a
 //                  multiple of the file's step: its indices range coded
-//                  (ht_lattice_chunk.hpp).
+//                  (ht_lattice_chunk.hpp);
+//   range-2d       (field only, format 3.6) range's stream with the
+//                  two-dimensional contexts of §7.6 (ht_field_chunk_coder.hpp).
 // Range coding wins on most chunks; the others bound the cost of constant,
 // sparse and incompressible chunks, where the range coder loses to zstd.
 #include <algorithm>
@@ -32,6 +34,7 @@ enum ChunkMode : uint32_t {
     kModeSamples = 2,
     kModeZeroResidual = 3,
     kModeLattice = 4,  // format 3.3
+    kModeRange2d = 5,  // format 3.6
 };
 /// Spec §6.4: constant and zero-residual chunks hold at most 2^22 values, so
 /// a chunk (96 bytes of table entries at least) expands no more than a zstd frame.
@@ -44,6 +47,7 @@ inline const char* chunk_mode_name(uint32_t mode) {
         case kModeSamples: return "samples";
         case kModeZeroResidual: return "zero-residual";
         case kModeLattice: return "lattice";
+        case kModeRange2d: return "range-2d";
         default: return "unknown";
     }
 }
@@ -90,6 +94,7 @@ struct ChunkModeChoice {
     int forced = -1;       // -1: the smallest; else this mode when it can code the chunk, range if not
     int zstd_level = 19;   // level of the samples mode's frames
     double max_error = 0;  // the file's stated bound (spec §5.1): > 0 tries the lattice mode
+    bool range_2d = true;  // may choose range-2d (format 3.6) for field chunks
 };
 
 /// Keeps the smaller of `best` and `cand` (the earlier one on a tie, so the
@@ -146,13 +151,29 @@ bool zero_residuals(const Geometry& G, const T* v, const HtChunk& c) {
     return check.zero;
 }
 
+constexpr std::size_t kRange2dMargin = 4;
+
 template <class T>
 CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk& c, ChunkModeChoice o) {
     using D = Dom<T>;
     constexpr int w = int(sizeof(T));
     if (c.points == 0) return coded({}, kModeRange);
-    CodedSection range = coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
-    if (o.forced == int(kModeRange)) return range;
+    if (o.forced == int(kModeRange)) return coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
+    if (o.forced == int(kModeRange2d)) return coded(encode_field_chunk_v2<T, true>(G, v, c), kModeRange2d);
+    // Both context sets, the two-dimensional one kept only when it saves at
+    // least kRange2dMargin bytes: a file is 3.6 only when it pays, and a section
+    // whose mode differs from its neighbours' costs about a byte of the
+    // compressed table (on 33^3 noise in 2-step bricks, a 1-byte margin gave a
+    // larger file than range alone). A forced mode falls back on mode 0, as
+    // before 3.6.
+    CodedSection range;
+    if (o.forced < 0 && o.range_2d) {
+        auto [stream1, stream2] = encode_field_chunk_both<T>(G, v, c);
+        const bool two_d = stream2.size() + kRange2dMargin <= stream1.size();
+        range = two_d ? coded(std::move(stream2), kModeRange2d) : coded(std::move(stream1), kModeRange);
+    } else {
+        range = coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
+    }
     // Zero residuals range-code to a few bytes per context; only such small
     // streams are worth the extra prediction pass (a linear chunk then costs nothing).
     const bool small = range.bytes.size() <= 16 + c.points / 256;
@@ -183,7 +204,8 @@ template <class T>
 CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
                                    int m, ChunkModeChoice o) {
     if (c.diamonds == 0) return coded({}, kModeRange);
-    if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice)) o.forced = int(kModeRange);  // field-only modes
+    if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice) || o.forced == int(kModeRange2d))
+        o.forced = int(kModeRange);  // field-only modes
     CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
@@ -232,6 +254,8 @@ std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uin
         }
         case kModeLattice:
             return decode_lattice_chunk<T>(G, v, c, lattice_step, in);
+        case kModeRange2d:
+            return decode_field_chunk_v2<T, true>(G, v, c, in) ? "" : "malformed range-coded stream";
         default:
             return "unknown chunk mode " + std::to_string(mode);
     }

@@ -10,9 +10,33 @@
 
 namespace tetlod::ht_detail {
 
-struct FieldModels {
-    rc::IntModel m[4][16];
+/// The field's contexts (spec §7.6): per class, one bucket of spread + 2 nbr
+/// (16 models), or, in range-2d chunks (mode 5, format 3.6), the spread's and
+/// the neighbour mean's buckets apart, 8 x 8 (64 models; class 3, whose spread
+/// is 0, keeps the 16 of one bucket). The sum mixes a point with a steep but
+/// exactly predicted slope and one in a busy neighbourhood; apart, bucky 128^3's
+/// field is 18 % smaller (docs/archival.md, "Two-dimensional contexts").
+template <bool TwoD>
+struct FieldModelsOf {
+    rc::IntModel m[4][TwoD ? 64 : 16];
 };
+using FieldModels = FieldModelsOf<false>;
+
+/// The cap of each dimension of a 2d context: buckets 0..7 (caps of 5, 9 and
+/// 11 were measured: none is better by more than 0.5 % but on headsq, 1.6 %).
+constexpr int kContext2dCap = 7;
+
+/// A point's model index within its class (spec §7.6): `spread` of its
+/// prediction, `mean` its neighbours' mean magnitude nbr(c).
+template <bool TwoD>
+[[gnu::always_inline]] inline int field_context(int cls, uint64_t spread, uint64_t mean) {
+    if constexpr (TwoD) {
+        if (cls < 3)
+            return (kContext2dCap + 1) * std::min(kContext2dCap, activity_bucket(spread)) +
+                   std::min(kContext2dCap, activity_bucket(2 * mean));
+    }
+    return activity_bucket(spread + 2 * mean);
+}
 
 /// Walks a chunk's points in coding order 2 and calls
 /// f(cls, prediction, field index, lattice slot) for each: the encoder and the
@@ -75,36 +99,80 @@ void walk_field_chunk(const Geometry& G, const T* v, const HtChunk& c, const Chu
 /// The encoder's step for one point, a value type for the same reason as
 /// FieldPointDecoder below: its coder state and lattice pointer then stay in
 /// locals across a row.
-template <class T>
+template <class T, bool TwoD = false>
 struct FieldPointEncoder {
     rc::Encoder enc;
-    FieldModels* models = nullptr;
+    FieldModelsOf<TwoD>* models = nullptr;
     const T* v = nullptr;
     LatticeView lat;
 
     [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
         using D = Dom<T>;
-        const uint64_t act = pr.spread + 2 * lat.neighbour_mean(s);
+        const int ctx = field_context<TwoD>(cls, pr.spread, lat.neighbour_mean(s));
         const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
         const bool neg = r < 0;
         const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
-        rc::encode_int(enc, models->m[cls][activity_bucket(act)], mag, neg, D::W);
+        rc::encode_int(enc, models->m[cls][ctx], mag, neg, D::W);
         lat.set(s, mag);
     }
 };
 
-template <class T>
+/// The range-coded stream of a field chunk: mode 0's contexts, or with TwoD
+/// those of mode 5 (range-2d).
+template <class T, bool TwoD = false>
 std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, const HtChunk& c) {
     std::vector<std::byte> out;
     if (c.points == 0) return out;
-    auto models = std::make_unique<FieldModels>();
+    auto models = std::make_unique<FieldModelsOf<TwoD>>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     prefetch_chunk(G, v, c.cycle, c.box, 1);
-    FieldPointEncoder<T> step{rc::Encoder(out), models.get(), v, lat.view()};
+    FieldPointEncoder<T, TwoD> step{rc::Encoder(out), models.get(), v, lat.view()};
     walk_field_chunk(G, v, c, lat, step);
     step.enc.finish();
     return out;
+}
+
+/// Both range streams of a field chunk, mode 0's and mode 5's, from one walk
+/// (the prediction and the lattice are the same; only the context differs):
+/// the encoder keeps the smaller, and the second stream costs its entropy
+/// coding only (a second walk made bucky 128^3's convert 35 % slower).
+template <class T>
+struct FieldPointEncoderPair {
+    rc::Encoder enc1, enc2;
+    FieldModelsOf<false>* models1 = nullptr;
+    FieldModelsOf<true>* models2 = nullptr;
+    const T* v = nullptr;
+    LatticeView lat;
+
+    [[gnu::always_inline]] void operator()(int cls, const Prediction& pr, int64_t idx, int64_t s) {
+        using D = Dom<T>;
+        const uint64_t mean = lat.neighbour_mean(s);
+        const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
+        const bool neg = r < 0;
+        const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
+        rc::encode_int(enc1, models1->m[cls][field_context<false>(cls, pr.spread, mean)], mag, neg, D::W);
+        rc::encode_int(enc2, models2->m[cls][field_context<true>(cls, pr.spread, mean)], mag, neg, D::W);
+        lat.set(s, mag);
+    }
+};
+
+/// The streams of modes 0 and 5 of a field chunk (FieldPointEncoderPair).
+template <class T>
+std::pair<std::vector<std::byte>, std::vector<std::byte>> encode_field_chunk_both(const Geometry& G, const T* v,
+                                                                                   const HtChunk& c) {
+    std::vector<std::byte> out1, out2;
+    if (c.points == 0) return {};
+    auto models1 = std::make_unique<FieldModelsOf<false>>();
+    auto models2 = std::make_unique<FieldModelsOf<true>>();
+    thread_local std::vector<uint32_t> storage;
+    ChunkLattice lat(c.cycle, c.box, storage);
+    prefetch_chunk(G, v, c.cycle, c.box, 1);
+    FieldPointEncoderPair<T> step{rc::Encoder(out1), rc::Encoder(out2), models1.get(), models2.get(), v, lat.view()};
+    walk_field_chunk(G, v, c, lat, step);
+    step.enc1.finish();
+    step.enc2.finish();
+    return {std::move(out1), std::move(out2)};
 }
 
 /// The decoder's step for one point, as a value type: walk_field_chunk keeps
@@ -112,10 +180,10 @@ std::vector<std::byte> encode_field_chunk_v2(const Geometry& G, const T* v, cons
 /// pointer stay in registers across the stores of decoded values (as members
 /// of an object in memory, every u8 store, which may alias anything, forced
 /// their reload).
-template <class T>
+template <class T, bool TwoD = false>
 struct FieldPointDecoder {
     rc::Decoder dec;
-    FieldModels* models = nullptr;
+    FieldModelsOf<TwoD>* models = nullptr;
     T* v = nullptr;
     LatticeView lat;
     RowEvenStrides even;  // of the current row (classes 0..2)
@@ -137,10 +205,9 @@ struct FieldPointDecoder {
         // the previous point of the row from a register.
         const uint64_t mean = cls < 3 ? lat.neighbour_mean_in_order_prev(cls, s, even.even1, even.even2, wprev)
                                       : lat.neighbour_mean(s);
-        const uint64_t act = pr.spread + 2 * mean;
         uint64_t mag;
         bool neg;
-        rc::decode_int(dec, models->m[cls][activity_bucket(act)], mag, neg, D::W);
+        rc::decode_int(dec, models->m[cls][field_context<TwoD>(cls, pr.spread, mean)], mag, neg, D::W);
         const typename D::U r = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
         v[idx] = D::put(typename D::U(uint64_t(pr.p) + uint64_t(r)));
         lat.set(s, mag);
@@ -158,8 +225,9 @@ struct FieldPointDecoder {
 /// itself sets, so the first pass sees the values the one-pass walk saw. The
 /// second pass, which carries the coder's dependent chain, then has few
 /// values live (in one pass they spilled, and the loop reloaded them per point).
-template <class T>
-void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLattice& lat, FieldPointDecoder<T>& f) {
+template <class T, bool TwoD>
+void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLattice& lat,
+                       FieldPointDecoder<T, TwoD>& f) {
     const ChunkFrame Fr(G, c.cycle, c.box);
     const int t = c.cycle;
     for_each_row_v2(G, t, c.box, [&](const ChunkRow& row) {
@@ -277,11 +345,10 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
                     }
                     for (int64_t i = 0; i < n; ++i, idx += didx, s += ds) {
                         if (dec.overrun()) continue;  // a valid stream never reads past its end: skip the rest
-                        const uint64_t act =
-                            psp[i] + 2 * LatticeView::mean_with_prev(LatticeView::Others{osum[i], on[i]}, wprev);
+                        const uint64_t mean = LatticeView::mean_with_prev(LatticeView::Others{osum[i], on[i]}, wprev);
                         uint64_t mag;
                         bool neg;
-                        rc::decode_int(dec, models[activity_bucket(act)], mag, neg, D::W);
+                        rc::decode_int(dec, models[field_context<TwoD>(Cls, psp[i], mean)], mag, neg, D::W);
                         const typename D::U rr = neg ? typename D::U(uint64_t(0) - mag) : typename D::U(mag);
                         vv[idx] = D::put(typename D::U(uint64_t(pp[i]) + uint64_t(rr)));
                         lv.set(s, mag);
@@ -295,14 +362,14 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
     });
 }
 
-/// False on a malformed stream.
-template <class T>
+/// False on a malformed stream. TwoD: mode 5's contexts (range-2d).
+template <class T, bool TwoD = false>
 bool decode_field_chunk_v2(const Geometry& G, T* v, const HtChunk& c, std::span<const std::byte> in) {
     if (c.points == 0) return in.empty();
-    auto models = std::make_unique<FieldModels>();
+    auto models = std::make_unique<FieldModelsOf<TwoD>>();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
-    FieldPointDecoder<T> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view(), {}, 0};
+    FieldPointDecoder<T, TwoD> step{rc::Decoder(in.data(), in.size()), models.get(), v, lat.view(), {}, 0};
     decode_field_rows(G, v, c, lat, step);
     return !step.dec.bad_end();
 }

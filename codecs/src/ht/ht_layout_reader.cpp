@@ -20,7 +20,8 @@ std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::Se
     const uint32_t mode = tlod::section_mode(s.flags);
     const bool zstd = (s.flags & tlod::kSectionZstd) != 0;
     auto bad = [](std::string m) { return std::optional{std::pair{ErrorCode::CorruptData, std::move(m)}}; };
-    if (mode > kModeLattice || ((mode == kModeZeroResidual || mode == kModeLattice) && !field))
+    if (mode > kModeRange2d ||
+        ((mode == kModeZeroResidual || mode == kModeLattice || mode == kModeRange2d) && !field))
         return std::optional{std::pair{ErrorCode::UnsupportedFeature,
                                        "unknown chunk mode " + std::to_string(mode) +
                                            (field ? "" : " for error codes")}};
@@ -162,9 +163,9 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
                 if (auto bad = check_chunk_mode(s, count, si == c.field_section ? uint64_t(W) : 2,
                                                 si == c.field_section, has_lattice))
                     return fail(bad->first, sec + bad->second);
-                // Lattice streams are range-coder streams: the same size rules.
+                // Lattice and range-2d streams are range-coder streams: the same size rules.
                 const uint32_t mode = tlod::section_mode(s.flags);
-                if (mode != kModeRange && mode != kModeLattice) continue;
+                if (mode != kModeRange && mode != kModeLattice && mode != kModeRange2d) continue;
             } else if (s.flags & tlod::kSectionModeMask) {
                 return fail(ErrorCode::CorruptData, sec + "chunk mode bits set in a file of residual coding " +
                                                         std::to_string(L.residual_coding));

@@ -44,6 +44,12 @@ inline constexpr uint32_t kFirstChunkModeOf3_3 = 4;
 /// 3.5: an MT in a lossy file (required feature bit 4, LOSSY_MT). Written only
 /// by such files.
 inline constexpr uint16_t kVersion3_5_Minor = 5;
+/// 3.6: HT chunk mode 5, range-2d (spec §6.4, §7.6), field chunks of any file.
+/// Written only by files with such a chunk: a 3.5 reader refuses it (unknown
+/// chunk mode).
+inline constexpr uint16_t kVersion3_6_Minor = 6;
+/// The first chunk mode of 3.6.
+inline constexpr uint32_t kFirstChunkModeOf3_6 = 5;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).

@@ -44,6 +44,9 @@ struct HtEncodeOptions {
     /// The section table's layout (spec §4.4): compact (format 3.2) or full
     /// (48-byte entries, for 3.0/3.1 readers). encode_ht sets it on its writer.
     tlod::TableLayout table = tlod::TableLayout::compact;
+    /// Field chunks may be coded in range-2d (chunk mode 5, format 3.6) where it
+    /// is smaller; false writes only modes that 3.0-3.5 readers know.
+    bool range_2d = true;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
     /// > 0: encode_ht stops and returns false as soon as its chunk sections
