@@ -125,8 +125,11 @@ int run_extract_container(const ExtractArgs& a, ModelKind model) {
           << " vertices, largest error " << format_error(x.max_error, x.range)
           << (x.field_max_error > 0 ? " against the original (lossy field)" : "") << "\n";
         warn_if_below_field_error(a.input, x);
-        o << "read     " << format_bytes(x.bytes_read) << " of " << format_bytes(x.file_size) << ", "
-          << x.chunks_decoded << " of " << x.chunks_total << " chunks";
+        // The file's bytes touched, each once; sections read again (the metadata
+        // by the opener and the extractor, chunks evicted and needed again) apart.
+        o << "read     " << format_bytes(x.distinct_bytes_read) << " of " << format_bytes(x.file_size);
+        if (x.bytes_read > x.distinct_bytes_read) o << " (" << format_bytes(x.bytes_read) << " with re-reads)";
+        o << ", " << x.chunks_decoded << " of " << x.chunks_total << " chunks";
         if (x.chunk_decodes > x.chunks_decoded) o << " (" << x.chunk_decodes << " decodings: raise --cache-mb)";
         o << ", cache " << format_bytes(x.cache_peak_bytes) << ", " << format_seconds(x.seconds) << "\n";
         detail("time     refine " + format_seconds(x.refine_seconds) + ", emit + write " +

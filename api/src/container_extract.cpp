@@ -95,6 +95,7 @@ Expected<ContainerExtract> extract(const std::string& path, ModelKind model, Lod
     x.refine_seconds = stats.refine_seconds;
     x.emit_seconds = stats.emit_seconds;
     x.bytes_read = lazy.bytes_read;
+    x.distinct_bytes_read = lazy.distinct_bytes_read;
     x.chunks_decoded = lazy.chunks_decoded;
     x.chunks_total = lazy.chunks_total;
     x.passes = lazy.passes;

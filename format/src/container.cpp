@@ -285,7 +285,8 @@ Expected<ContainerReader> ContainerReader::parse(std::unique_ptr<ByteSource> src
     out.header_ = h;
     out.name_ = std::move(name);
     out.src_ = std::move(src);
-    out.bytes_read_ = table_end;
+    out.bytes_read_ = out.distinct_bytes_read_ = table_end;
+    out.section_read_.assign(out.sections_.size(), false);
     out.table_bytes_ = table_end - kHeaderSize;
     return out;
 }
@@ -303,6 +304,7 @@ Expected<std::vector<std::byte>> ContainerReader::read_stored(std::size_t i) {
     if (!src_->read_at(s.offset, stored.data(), stored.size()))
         return fail(ErrorCode::IoError, name_ + ": read failed");
     bytes_read_ += s.stored_size;
+    if (!section_read_[i]) section_read_[i] = true, distinct_bytes_read_ += s.stored_size;
     if (kCheckChecksums && checksum64(stored) != s.checksum)
         return fail(ErrorCode::ChecksumMismatch, name_ + ": section " + std::to_string(i) + " (" +
                                                      section_type_name(s.type) +

@@ -165,6 +165,7 @@ void bind_models(py::module_& m) {
             // A lossy container's E: no tet's bound (max_error included) is below it.
             out.attr("field_max_error") = x.field_max_error;
             out.attr("bytes_read") = x.bytes_read;
+            out.attr("distinct_bytes_read") = x.distinct_bytes_read;
             return out;
         },
         py::arg("path"), py::arg("model") = py::none(), py::arg("error") = py::none(),

@@ -105,6 +105,11 @@ TEST(PublicApi, BuildWriteOpenQueryMeasure) {
             expect_same_mesh(opened.extract(q), from_memory);
             const ContainerExtract x = extract_from_container(path, kind, q).take();
             expect_same_mesh(x.mesh, from_memory);
+            if (kind == ModelKind::Ht) {  // the lazy HT path: the file's bytes it touched, each once
+                EXPECT_GT(x.distinct_bytes_read, 0u);
+                EXPECT_LE(x.distinct_bytes_read, x.file_size);
+                EXPECT_GE(x.bytes_read, x.distinct_bytes_read);
+            }
         }
     }
 

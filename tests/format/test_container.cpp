@@ -395,6 +395,15 @@ TEST(Lazy, CoarseLodReadsAPrefix) {
     auto d2 = decode_ht(*r2, b);
     ASSERT_TRUE(d2.ok());
     EXPECT_LT(r2->bytes_read(), f.size() / 2);
+    EXPECT_LE(r2->distinct_bytes_read(), r2->bytes_read());
+    // A section read again counts again in bytes_read, once in distinct_bytes_read.
+    auto r3 = ContainerReader::from_memory(f);
+    const uint64_t head = r3->distinct_bytes_read();
+    EXPECT_EQ(head, r3->bytes_read());
+    ASSERT_TRUE(r3->read_stored(0).ok());
+    ASSERT_TRUE(r3->read_stored(0).ok());
+    EXPECT_EQ(r3->bytes_read(), head + 2 * r3->sections()[0].stored_size);
+    EXPECT_EQ(r3->distinct_bytes_read(), head + r3->sections()[0].stored_size);
     for (int64_t z = 10; z <= 14; ++z)
         for (int64_t y = 10; y <= 14; ++y)
             for (int64_t x = 10; x <= 14; ++x) ASSERT_EQ(d2->field.value(x, y, z), v.value(x, y, z));

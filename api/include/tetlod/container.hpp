@@ -270,6 +270,7 @@ struct ContainerExtract {
     /// so a threshold under E gives the finest mesh and is not met.
     double field_max_error = 0;
     uint64_t bytes_read = 0, file_size = 0;
+    uint64_t distinct_bytes_read = 0;  // bytes_read with each section counted once (at most file_size)
     uint64_t chunks_decoded = 0, chunks_total = 0, passes = 0;
     uint64_t chunk_decodes = 0;      // decodings (a chunk evicted and needed again counts again)
     std::size_t cache_peak_bytes = 0; // largest content of the decoded-chunk cache

@@ -27,6 +27,7 @@ void report(const HtLayout& L, const HtChunkCache& cache, const tlod::ContainerR
     ls->cache_peak_bytes = cs.peak_bytes;
     ls->passes = 1;
     ls->bytes_read = r.bytes_read();
+    ls->distinct_bytes_read = r.distinct_bytes_read();
 }
 
 void watch(HtChunkCache& cache, const HtLayout& L, const HtLazyOptions& o) {

@@ -183,8 +183,12 @@ public:
     /// Reads the stored bytes and checks only the checksum (verify).
     Expected<std::vector<std::byte>> read_stored(std::size_t i);
 
-    /// Bytes read from the source so far (header and table included).
+    /// Bytes read from the source so far (header and table included), a
+    /// section read twice counted twice.
     uint64_t bytes_read() const { return bytes_read_; }
+    /// The file's bytes read so far, each counted once: header, table and the
+    /// sections read at least once (what part of the file a query touched).
+    uint64_t distinct_bytes_read() const { return distinct_bytes_read_; }
     /// The layout of the file's section table and its size in bytes (what
     /// follows the 64-byte header up to the first section).
     TableLayout table_layout() const {
@@ -198,7 +202,8 @@ private:
     std::string name_;
     Header header_;
     std::vector<SectionInfo> sections_;
-    uint64_t bytes_read_ = 0;
+    uint64_t bytes_read_ = 0, distinct_bytes_read_ = 0;
+    std::vector<bool> section_read_;  // per section: read at least once
     uint64_t table_bytes_ = 0;
 };
 

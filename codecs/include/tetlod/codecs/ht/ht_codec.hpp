@@ -198,8 +198,9 @@ struct HtLazyStats {
     uint64_t chunks_decoded = 0;    // distinct chunks decoded
     uint64_t chunk_decodes = 0;     // decodings, counting a chunk evicted and needed again
     std::size_t cache_peak_bytes = 0;
-    uint64_t bytes_read = 0;  // from the container, header and table included
-    int passes = 0;           // refinement passes (1)
+    uint64_t bytes_read = 0;           // from the container, header and table included
+    uint64_t distinct_bytes_read = 0;  // the same, a section read twice counted once
+    int passes = 0;                    // refinement passes (1)
 };
 struct HtLazyOptions {
     /// Budget of the decoded-chunk cache. Below what a query examines, chunks
