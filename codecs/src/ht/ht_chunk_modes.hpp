@@ -151,6 +151,8 @@ bool zero_residuals(const Geometry& G, const T* v, const HtChunk& c) {
     return check.zero;
 }
 
+/// Bytes a range-2d stream must save over mode 0's to be kept (see
+/// encode_field_chunk_v3).
 constexpr std::size_t kRange2dMargin = 4;
 
 template <class T>

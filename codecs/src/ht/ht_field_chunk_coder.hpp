@@ -15,15 +15,17 @@ namespace tetlod::ht_detail {
 /// the neighbour mean's buckets apart, 8 x 8 (64 models; class 3, whose spread
 /// is 0, keeps the 16 of one bucket). The sum mixes a point with a steep but
 /// exactly predicted slope and one in a busy neighbourhood; apart, bucky 128^3's
-/// field is 18 % smaller (docs/archival.md, "Two-dimensional contexts").
+/// field is 18 % smaller (docs/archival.md, "Static tables, and two-dimensional
+/// contexts").
 template <bool TwoD>
 struct FieldModelsOf {
     rc::IntModel m[4][TwoD ? 64 : 16];
 };
 using FieldModels = FieldModelsOf<false>;
 
-/// The cap of each dimension of a 2d context: buckets 0..7 (caps of 5, 9 and
-/// 11 were measured: none is better by more than 0.5 % but on headsq, 1.6 %).
+/// The cap of each dimension of a 2d context: buckets 0..7. Caps of 5, 9 and
+/// 11 were measured too: 7 is within 0.5 % of the best on every volume but
+/// headsq (1.6 % behind a cap of 9).
 constexpr int kContext2dCap = 7;
 
 /// A point's model index within its class (spec §7.6): `spread` of its
