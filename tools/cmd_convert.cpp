@@ -118,7 +118,6 @@ int run_convert(const ConvertArgs& a) {
     wo.mt_error_bits = a.mt_error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
     wo.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
-    wo.range_2d = a.table != "full";  // "full": for older readers, so no 3.6 chunk mode either
     if (max_error && max_error->value > 0) {
         // Percent of the original's range: one more read when streaming.
         const std::array<double, 2> range =

@@ -441,7 +441,7 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     const bool compact = table_ == TableLayout::compact;
     const uint64_t required = header_.required_features | (compact ? kFeatureCompactTable : 0);
     // A file says the oldest version that has every feature it uses: files
-    // with the full table stay 3.0 (3.1 when lossy), byte for byte.
+    // with the full table and nothing newer stay 3.0 (3.1 when lossy), byte for byte.
     // 3.3 when a section uses a chunk mode of 3.3 (spec §4.1, §6.4).
     // 3.6 when one uses a chunk mode of 3.6 (§7.6), whatever else the file has.
     const bool modes_3_3 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {

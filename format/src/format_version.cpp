@@ -11,7 +11,7 @@
 namespace tetlod::tlod {
 
 // The spec version this library implements (spec/tlod-format.md §3): its newest
-// writer feature is LOSSY_MT (3.5).
+// writer feature is chunk mode 5, range-2d (3.6).
 const char* format_version_string() { return "tlod-format 3.6"; }
 
 uint64_t checksum64(std::span<const std::byte> bytes) {

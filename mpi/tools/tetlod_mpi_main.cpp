@@ -207,7 +207,6 @@ int run(const Args& a, int rank, int size) {
     o.write.brick_log2 = a.brick_log2;
     o.write.error_bits = a.error_bits;
     o.write.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
-    o.write.range_2d = a.table != "full";  // "full": for older readers, so no 3.6 chunk mode either
     o.write.memory_bytes = default_memory_budget();
     if (!a.memory.empty()) {
         std::string why;

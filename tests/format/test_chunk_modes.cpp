@@ -298,6 +298,8 @@ TEST(ChunkModesHostile, Range2dRefusedWithSpecificErrors) {
         if (f.code == ErrorCode::Ok) {
             auto r = ContainerReader::from_memory(rebuild(ss));
             EXPECT_NE(decode_ht(*r)->field.data, v.data);
+        } else {
+            EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
         }
     }
     // Random streams and flipped bytes: a clean error or a field, never a crash

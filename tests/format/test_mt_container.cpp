@@ -172,9 +172,10 @@ TEST(TestVectors, MtVectorsDecodeToTheirStoredContents) {
     // Format 2.1 vectors (MT_Coding 1) are kept as written: a 3.0 writer would
     // write a 3.0 file (its HT in chunk modes), so they are no longer
     // regenerated. The 3.4 vectors (MT_Coding 3) and the 3.5 one (LOSSY_MT) are
-    // kept as written too since 3.6, whose writer may code their HT field
-    // chunks in range-2d (a 3.6 file). `current` ones are regenerated with
-    // TETLOD_REGENERATE_VECTORS=1 after a deliberate format change only.
+    // kept as written too since 3.6: only the newest version's vectors are
+    // regenerated (a 3.6 writer may code an ht_mt vector's HT field chunks in
+    // range-2d). A vector marked `current` is regenerated with
+    // TETLOD_REGENERATE_VECTORS=1, after a deliberate MT format change.
     for (const V v : {V{"ht_mt_v2.1_u8_9x6x5", true, false}, V{"mt_v2.1_i16_6x5x4", false, false},
                       V{"ht_mt_v3.4_u8_9x6x5", true, false}, V{"mt_v3.4_i16_6x5x4", false, false},
                       V{"ht_mt_lossy_v3.5_u8_9x6x5", true, false, 3.0}}) {

@@ -36,8 +36,9 @@ struct Vector {
     /// Vectors of an older format version are kept, never regenerated: readers
     /// must go on decoding them. (2.1 changed nothing for HT-only files: the 2.0
     /// vectors stand; the 2.1 MT vectors are in test_mt_container.cpp.) Since
-    /// 3.6 the 3.0-3.3 vectors are kept too: their writer's choice would now
-    /// take the range-2d mode, which they predate.
+    /// 3.6 only the newest version's vectors are regenerated: a later writer
+    /// may code a chunk its own way (those with the writer's choice could take
+    /// range-2d), and a vector stands for its version.
     bool current;
     /// Format 3.0 (chunk modes, spec §6.4): the volume's shape and the forced
     /// mode (-1: the encoder's choice), so that every mode occurs in a vector.

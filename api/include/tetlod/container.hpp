@@ -94,12 +94,14 @@ struct ContainerWriteOptions {
     /// VolumePlanes overload streams two (lossless, lattice) and keeps the smaller.
     double max_error = 0;
     /// The section table's layout: compact (format 3.2, spec §4.4, the
-    /// smallest) or full (48-byte entries: a 3.0 file, 3.1 when lossy, that
-    /// readers older than 3.2 read). The sections' bytes are the same.
+    /// smallest) or full (48-byte entries, for readers older than 3.2: it
+    /// also turns range_2d off, so a lossless HT file is a 3.0 file, byte for
+    /// byte what they wrote; a lossy one 3.1, or 3.3 with lattice chunks, 3.5
+    /// with an MT).
     tlod::TableLayout table = tlod::TableLayout::compact;
     /// HT field chunks may use range-2d (chunk mode 5, format 3.6, spec §7.6)
-    /// where it is smaller. false, with the full table, writes a file that
-    /// 3.0/3.1 readers open, byte for byte what they wrote.
+    /// where it saves bytes (with the compact table only); false writes only
+    /// what 3.0-3.5 readers read.
     bool range_2d = true;
 };
 
@@ -206,10 +208,10 @@ struct SectionCoderInfo {
     /// coding 2), "ht-planes-v1" (coding 1 byte planes; "+zstd" when flagged),
     /// "mt-zstd-payload" (MT_STRUCTURE), "unknown"; coding 3 chunk modes:
     /// "ht-range-v2", "ht-constant", "ht-samples+zstd", "ht-samples",
-    /// "ht-zero-residual".
+    /// "ht-zero-residual", "ht-lattice" (3.3), "ht-range-2d" (3.6).
     std::string coder;
     /// Coding 3 HT chunks: the chunk mode ("range", "constant", "samples",
-    /// "zero-residual"); empty for every other section.
+    /// "zero-residual", "lattice", "range-2d"); empty for every other section.
     std::string mode;
     std::string description;  // one line for people, naming the spec section
     uint64_t count = 0;       // sections of this type

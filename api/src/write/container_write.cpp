@@ -108,7 +108,8 @@ HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
     e.brick_log2 = o.brick_log2;
     e.error_mantissa_bits = o.error_bits;
     e.table = o.table;
-    e.range_2d = o.range_2d;
+    // The full table is for readers older than 3.2: no 3.6 chunk mode either.
+    e.range_2d = o.range_2d && o.table == tlod::TableLayout::compact;
     return e;
 }
 

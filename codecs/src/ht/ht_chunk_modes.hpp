@@ -1,6 +1,7 @@
 #pragma once
 // Residual coding 3 (spec §6.4): every HT chunk section carries a mode in its
-// table Flags, chosen per chunk by the encoder as the smallest of
+// table Flags, chosen per chunk by the encoder as the smallest of (range-2d
+// only when it saves kRange2dMargin bytes)
 //   range          the coding-2 stream (§7.5-§8.3), unchanged;
 //   constant       every value of the chunk is the same: that one value;
 //   samples        the values themselves in point order, in a zstd frame

@@ -30,9 +30,11 @@ struct HtEncodeOptions {
     /// bound exceeds the true error by less than a factor 1 + 2^-m.
     int error_mantissa_bits = 4;
     /// Chunk modes (spec §6.4): -1 codes every chunk section in the smallest
-    /// mode; 0 range, 1 constant, 2 samples, 3 zero-residual, 4 lattice (field
-    /// chunks of lossy files whose values are all on the step's lattice, format
-    /// 3.3) force that mode wherever it can code the chunk (tests), range elsewhere.
+    /// mode (range-2d only when it saves 4 bytes); 0 range, 1 constant, 2
+    /// samples, 3 zero-residual, 4 lattice (field chunks of lossy files whose
+    /// values are all on the step's lattice, format 3.3), 5 range-2d (field
+    /// chunks, format 3.6) force that mode wherever it can code the chunk
+    /// (tests), range elsewhere.
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
@@ -42,7 +44,8 @@ struct HtEncodeOptions {
     /// coded are those of that field, readers add E.
     double max_error = 0;
     /// The section table's layout (spec §4.4): compact (format 3.2) or full
-    /// (48-byte entries, for 3.0/3.1 readers). encode_ht sets it on its writer.
+    /// (48-byte entries, for 3.0/3.1 readers, with range_2d false). encode_ht
+    /// sets it on its writer.
     tlod::TableLayout table = tlod::TableLayout::compact;
     /// Field chunks may be coded in range-2d (chunk mode 5, format 3.6) where it
     /// is smaller; false writes only modes that 3.0-3.5 readers know.
