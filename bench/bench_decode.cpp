@@ -4,8 +4,9 @@
 // the error bounds, in MB/s of raw output, plus wall time. With --threads N
 // (0: TBB's default) chunks of a cycle decode in parallel and wall time is the
 // figure to read. --field-only skips the field+errors run (what `tetlod decode`
-// does is the field only); --brick-log2 G codes bricks of 2^(t+1+G) (default 4).
-// Usage: bench_decode [RAW] [--reps N] [--threads N] [--field-only] [--brick-log2 G]
+// does is the field only); --brick-log2 G codes bricks of 2^(t+1+G) (default 4);
+// --fast-decode codes the field as `convert --fast-decode` (static-table rANS).
+// Usage: bench_decode [RAW] [--reps N] [--threads N] [--field-only] [--brick-log2 G] [--fast-decode]
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -48,12 +49,13 @@ static Volume sample_257() {
 int main(int argc, char** argv) {
     std::string raw;
     int reps = 1, threads = 1, brick_log2 = 4;
-    bool field_only = false;
+    bool field_only = false, fast_decode = false;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--reps" && i + 1 < argc) reps = std::atoi(argv[++i]);
         else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
         else if (a == "--field-only") field_only = true;
+        else if (a == "--fast-decode") fast_decode = true;
         else if (a == "--brick-log2" && i + 1 < argc) brick_log2 = std::atoi(argv[++i]);
         else raw = a;
     }
@@ -75,6 +77,7 @@ int main(int argc, char** argv) {
     tlod::ContainerWriter w;
     HtEncodeOptions eo;
     eo.brick_log2 = brick_log2;
+    eo.fast_decode = fast_decode;
     encode_ht(model, tlod::metadata_for_volume(v), w, eo);
     const auto file = w.finish();
     const double mb = double(v.data.size()) / 1e6;

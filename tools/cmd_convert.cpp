@@ -36,6 +36,7 @@ struct ConvertArgs {
     std::string memory;  // empty: default_memory_budget()
     bool in_memory = false;
     std::string table = "compact";
+    bool fast_decode = false;
 };
 
 int run_convert(const ConvertArgs& a) {
@@ -118,6 +119,7 @@ int run_convert(const ConvertArgs& a) {
     wo.mt_error_bits = a.mt_error_bits;
     wo.mt_max_shape_ratio = a.max_shape_ratio;
     wo.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
+    wo.fast_decode = a.fast_decode;
     if (max_error && max_error->value > 0) {
         // Percent of the original's range: one more read when streaming.
         const std::array<double, 2> range =
@@ -222,6 +224,10 @@ const CommandRegistration convert_registration{Command{
                        "and no range-2d chunks of format 3.6: a 3.0/3.1 file that older tetlod readers open)")
             ->capture_default_str()
             ->check(CLI::IsMember({"compact", "full"}))
+            ->group(g);
+        sub.add_flag("--fast-decode", a->fast_decode,
+                     "Code the HT's field for decoding speed: static-table rANS chunks (format 3.7), several "
+                     "times faster to decode, for a larger file (docs/archival.md, \"Fast decoding\")")
             ->group(g);
         sub.add_option("--level", a->level,
                        "zstd level of every frame, the HT chunks' fallback frames included (below 19: faster, "

@@ -24,6 +24,8 @@ std::string describe(const std::string& coder, uint32_t type) {
     if (coder == "ht-samples") return "the chunk's values in point order, uncompressed (§6.4)";
     if (coder == "ht-zero-residual") return "every value equals its prediction: no bytes (§6.4)";
     if (coder == "ht-lattice") return "multiples of the lossy step: their indices range coded (§6.4)";
+    if (coder == "ht-static-rans")
+        return "neighbour prediction, one symbol a point from the chunk's static tables, rANS (§6.4, §7.6)";
     if (coder == "ht-range-2d")
         return "neighbour prediction, adaptive range coder, spread and neighbour contexts apart (§6.4, §7.6)";
     if (coder == "ht-range-v2")
@@ -51,6 +53,7 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
                     case 3: return "ht-zero-residual";
                     case 4: return "ht-lattice";
                     case 5: return "ht-range-2d";
+                    case 6: return "ht-static-rans";
                     default: return "unknown";
                 }
             }
@@ -69,9 +72,10 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
 
 std::string section_mode_name(const tlod::SectionInfo& s, int ht_residual_coding) {
     if (ht_residual_coding != 3 || (s.type != tlod::kSectionHtField && s.type != tlod::kSectionHtErrors)) return "";
-    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d"};
+    static const char* const names[] = {"range",   "constant", "samples", "zero-residual",
+                                        "lattice", "range-2d", "static"};
     const uint32_t m = tlod::section_mode(s.flags);
-    return m < 6 ? names[m] : "unknown";
+    return m < 7 ? names[m] : "unknown";
 }
 
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,

@@ -443,14 +443,19 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     // A file says the oldest version that has every feature it uses: files
     // with the full table and nothing newer stay 3.0 (3.1 when lossy), byte for byte.
     // 3.3 when a section uses a chunk mode of 3.3 (spec §4.1, §6.4).
-    // 3.6 when one uses a chunk mode of 3.6 (§7.6), whatever else the file has.
+    // 3.6 when one uses a chunk mode of 3.6 (§7.6), whatever else the file has;
+    // 3.7 when one uses a chunk mode of 3.7.
     const bool modes_3_3 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
         return section_mode(s.flags) >= kFirstChunkModeOf3_3;
     });
     const bool modes_3_6 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
         return section_mode(s.flags) >= kFirstChunkModeOf3_6;
     });
-    const uint16_t minor = modes_3_6                                ? kVersion3_6_Minor
+    const bool modes_3_7 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
+        return section_mode(s.flags) >= kFirstChunkModeOf3_7;
+    });
+    const uint16_t minor = modes_3_7                                ? kVersion3_7_Minor
+                           : modes_3_6                              ? kVersion3_6_Minor
                            : (required & kFeatureLossyMt)           ? kVersion3_5_Minor
                            : modes_3_3                              ? kVersion3_3_Minor
                            : compact                                ? kVersion3_2_Minor

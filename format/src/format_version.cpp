@@ -11,8 +11,8 @@
 namespace tetlod::tlod {
 
 // The spec version this library implements (spec/tlod-format.md §3): its newest
-// writer feature is chunk mode 5, range-2d (3.6).
-const char* format_version_string() { return "tlod-format 3.6"; }
+// writer feature is chunk mode 6, static (3.7).
+const char* format_version_string() { return "tlod-format 3.7"; }
 
 uint64_t checksum64(std::span<const std::byte> bytes) {
     return XXH64(bytes.data(), bytes.size(), 0);

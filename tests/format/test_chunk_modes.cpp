@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -15,6 +16,7 @@
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
+#include "entropy/static_rans.hpp"
 #include "tlod_test_util.hpp"
 
 using namespace tetlod;
@@ -72,7 +74,7 @@ class ChunkModes : public ::testing::TestWithParam<ValueType> {};
 
 TEST_P(ChunkModes, EveryModeBitExact) {
     for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
-        for (int mode : {-1, 0, 1, 2, 3, 5}) {
+        for (int mode : {-1, 0, 1, 2, 3, 5, 6}) {
             const Volume v = make_shaped({11, 9, 7}, GetParam(), shape);
             const HtModel m = HtModel::build(v);
             const auto bytes = encode(m, v, mode, 1);
@@ -95,12 +97,17 @@ TEST_P(ChunkModes, EveryModeBitExact) {
             if (mode == 2) EXPECT_GT(em[2], 0);
             if (mode == 1 && shape == Shape::Constant) EXPECT_GT(fm[1] + em[1], 0);
             if (mode == 3 && shape == Shape::Linear) EXPECT_GT(fm[3], 0);
-            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + fm[5] + em[1] + em[2], 0);
+            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + fm[5] + fm[6] + em[1] + em[2], 0);
             // Range-2d (format 3.6): every field chunk with points, never an error chunk.
             if (mode == 5) EXPECT_EQ(fm[0] + fm[1] + fm[2] + fm[3], 0);
             if (mode == 5) EXPECT_GT(fm[5], 0);
             EXPECT_EQ(em[5], 0);
-            EXPECT_EQ(r->header().version_minor, fm[5] > 0 ? 6 : 2) << "mode " << mode;
+            // Static (format 3.7): every field chunk with points, never an error chunk.
+            if (mode == 6) EXPECT_EQ(fm[0] + fm[1] + fm[2] + fm[3] + fm[5], 0);
+            if (mode == 6) EXPECT_GT(fm[6], 0);
+            if (mode != 6) EXPECT_EQ(fm[6], 0);
+            EXPECT_EQ(em[6], 0);
+            EXPECT_EQ(r->header().version_minor, fm[6] > 0 ? 7 : fm[5] > 0 ? 6 : 2) << "mode " << mode;
             // (Error chunks at the far faces of B mix 0 with +inf bounds: range coded.)
             if (mode == -1 && shape == Shape::Constant) EXPECT_EQ(fm[0], 0);
         }
@@ -315,6 +322,152 @@ TEST(ChunkModesHostile, Range2dRefusedWithSpecificErrors) {
         }
         const Failure f = open_failure(rebuild(ss));
         EXPECT_TRUE(f.code == ErrorCode::Ok || f.code == ErrorCode::CorruptData) << f.message;
+    }
+}
+
+TEST(ChunkModesHostile, StaticRefusedWithSpecificErrors) {
+    const Volume v = make_shaped({11, 9, 7}, ValueType::I16, Shape::Noisy);
+    const HtModel m = HtModel::build(v);
+    const auto good = sections_of(encode(m, v, 6));
+    const std::size_t fs = find_mode(good, kSectionHtField, 6);
+    std::size_t es = 0;
+    for (std::size_t i = 0; i < good.size(); ++i)
+        if (good[i].info.type == kSectionHtErrors && good[i].info.raw_size > 0) es = i;
+    ASSERT_NE(es, 0u);
+    // The largest static section (the first may be a one-point chunk of 19 bytes).
+    std::size_t big = fs;
+    for (std::size_t i = 0; i < good.size(); ++i)
+        if (good[i].info.type == kSectionHtField && good[i].info.raw_size > good[big].info.raw_size) big = i;
+    ASSERT_EQ(section_mode(good[big].info.flags), 6u);
+    ASSERT_GT(good[big].info.raw_size, 40u);
+    ASSERT_EQ(open_failure(rebuild(good)).code, ErrorCode::Ok) << open_failure(rebuild(good)).message;
+    {  // a field mode: refused on an error chunk
+        auto ss = good;
+        set_mode(ss[es], 6);
+        ss[es].info.flags &= ~kSectionZstd;
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 6 for error codes");
+    }
+    {  // mode 7 is not defined
+        auto ss = good;
+        set_mode(ss[fs], 7);
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 7");
+    }
+    {  // flagged ZSTD
+        auto ss = good;
+        ss[fs].info.flags |= kSectionZstd;
+        ss[fs].bytes = zstd_compress(ss[fs].bytes, 1);
+        expect_failure(ss, ErrorCode::CorruptData, "must not be zstd");
+    }
+    {  // shorter than any static section, from the table
+        auto ss = good;
+        ss[fs].bytes.resize(18);
+        ss[fs].info.raw_size = 18;
+        expect_failure(ss, ErrorCode::CorruptData, "static chunk of 18 bytes");
+    }
+    {  // truncated by one byte: the raw bits do not end where they should
+        auto ss = good;
+        ss[big].bytes.pop_back();
+        ss[big].info.raw_size -= 1;
+        expect_failure(ss, ErrorCode::CorruptData, "malformed static");
+    }
+    {  // one byte too many
+        auto ss = good;
+        ss[big].bytes.push_back(std::byte{0});
+        ss[big].info.raw_size += 1;
+        expect_failure(ss, ErrorCode::CorruptData, "malformed static");
+    }
+    {  // a used table dropped: its points read the unused tables' block
+        auto ss = good;
+        std::array<rans::Frequencies, 64> tables;
+        const auto taken = rans::read_tables(ss[big].bytes, tables);
+        ASSERT_TRUE(taken.has_value());
+        std::size_t used = 0;
+        while (tables[used] == rans::Frequencies{}) ++used;
+        tables[used] = rans::Frequencies{};
+        std::vector<std::byte> bytes;
+        rans::write_tables(tables, bytes);
+        bytes.insert(bytes.end(), ss[big].bytes.begin() + std::ptrdiff_t(*taken), ss[big].bytes.end());
+        ss[big].bytes = bytes;
+        ss[big].info.raw_size = bytes.size();
+        expect_failure(ss, ErrorCode::CorruptData, "unused table");
+    }
+    {  // the range decoder reading a static stream
+        auto ss = good;
+        set_mode(ss[big], 0);
+        const Failure f = open_failure(rebuild(ss));
+        EXPECT_TRUE(f.code == ErrorCode::CorruptData || f.code == ErrorCode::Ok) << f.message;
+    }
+    // Random streams and flipped bytes: a clean error or a field, never a crash
+    // (run under ASan / UBSan in the sanitizer build).
+    std::mt19937 rng(13);
+    for (int trial = 0; trial < 300; ++trial) {
+        auto ss = good;
+        auto& b = ss[trial % 2 ? big : fs].bytes;
+        if (trial % 3 == 0) {
+            for (auto& x : b) x = std::byte(rng() & 0xFF);
+        } else {
+            b[rng() % b.size()] ^= std::byte(1u << (rng() % 8));
+        }
+        const Failure f = open_failure(rebuild(ss));
+        EXPECT_TRUE(f.code == ErrorCode::Ok || f.code == ErrorCode::CorruptData) << f.message;
+    }
+}
+
+TEST(ChunkModesChoice, FastDecodeUsesOnlyFastModesAndRoundTrips) {
+    for (ValueType t : {ValueType::U8, ValueType::I16, ValueType::U32, ValueType::F32, ValueType::F64}) {
+        for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
+            const Volume v = make_shaped({13, 10, 9}, t, shape);
+            const HtModel m = HtModel::build(v);
+            HtEncodeOptions eo;
+            eo.brick_log2 = 1;
+            eo.fast_decode = true;
+            ContainerWriter w;
+            encode_ht(m, metadata_for_volume(v), w, eo);
+            const auto bytes = w.finish();
+            const auto fm = mode_counts(bytes, kSectionHtField);
+            EXPECT_EQ(fm[0] + fm[4] + fm[5], 0) << value_type_name(t) << " shape " << int(shape);
+            auto r = ContainerReader::from_memory(bytes);
+            ASSERT_TRUE(r.ok());
+            EXPECT_EQ(r->header().version_minor, fm[6] > 0 ? 7 : 2);
+            auto dec = decode_ht(*r);
+            ASSERT_TRUE(dec.ok()) << dec.failure().message;
+            ASSERT_EQ(dec->field.data, v.data) << value_type_name(t) << " shape " << int(shape);
+            if (shape == Shape::Constant) EXPECT_EQ(fm[6], 0);
+        }
+    }
+}
+
+TEST(ChunkModesChoice, StaticCodesExtremeResidualsOfEveryWidth) {
+    // Alternating extremes: residuals of every bit length up to the type's
+    // width, the escape's raw lengths and the 24 + rest split of the widest.
+    for (ValueType t : {ValueType::I8, ValueType::U16, ValueType::I32, ValueType::U32, ValueType::F32, ValueType::F64}) {
+        Volume v = Volume::allocate({9, 8, 7}, t);
+        std::mt19937_64 rng(5);
+        dispatch_value_type(t, [&](auto tv) {
+            using T = decltype(tv);
+            T* p = v.as<T>();
+            for (int64_t i = 0; i < v.count(); ++i) {
+                if constexpr (std::is_floating_point_v<T>) {
+                    // Finite values of every exponent (the HT needs finite values),
+                    // the largest and zero among them.
+                    const double mag = std::ldexp(double(rng() % 1000003), int(rng() % 200) - 100);
+                    p[i] = i % 3 == 0 ? std::numeric_limits<T>::max() : i % 5 == 0 ? T(0) : T(rng() % 2 ? -mag : mag);
+                } else {
+                    uint64_t bits = rng();
+                    if (i % 3 == 0) bits = ~uint64_t{0};
+                    if (i % 5 == 0) bits = 0;
+                    p[i] = T(bits >> (64 - 8 * sizeof(T)));
+                }
+            }
+        });
+        const HtModel m = HtModel::build(v);
+        const auto bytes = encode(m, v, 6);
+        auto r = ContainerReader::from_memory(bytes);
+        ASSERT_TRUE(r.ok());
+        auto dec = decode_ht(*r);
+        ASSERT_TRUE(dec.ok()) << dec.failure().message;
+        EXPECT_EQ(dec->field.data, v.data) << value_type_name(t);
+        EXPECT_GT(mode_counts(bytes, kSectionHtField)[6], 0);
     }
 }
 

@@ -274,10 +274,10 @@ TEST(LatticeModeHostile, RefusedWithSpecificErrors) {
         const Failure got = decode_failure(f);
         EXPECT_EQ(got.code, ErrorCode::CorruptData) << got.message;
     }
-    {  // an unknown mode above the last one (range-2d, 5, since 3.6)
+    {  // an unknown mode above the last one (static, 6, since 3.7)
         File f = good;
-        set_mode(f.sections[ls], 6);
-        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 6");
+        set_mode(f.sections[ls], 7);
+        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 7");
     }
     // Random streams and flipped bytes: a clean error or a field, never a crash
     // (run under ASan / UBSan in the sanitizer build).

@@ -103,6 +103,12 @@ struct ContainerWriteOptions {
     /// where it saves bytes (with the compact table only); false writes only
     /// what 3.0-3.5 readers read.
     bool range_2d = true;
+    /// HT field chunks in the modes that decode fast: static-table rANS (chunk
+    /// mode 6, format 3.7, spec §7.6), or constant, zero-residual or samples
+    /// where they apply or are smaller. Decodes several times faster, for a
+    /// larger file (docs/archival.md, "Fast decoding"). Needs the compact
+    /// table and an HT (else InvalidArgument).
+    bool fast_decode = false;
 };
 
 struct ContainerWriteSummary {
@@ -208,10 +214,10 @@ struct SectionCoderInfo {
     /// coding 2), "ht-planes-v1" (coding 1 byte planes; "+zstd" when flagged),
     /// "mt-zstd-payload" (MT_STRUCTURE), "unknown"; coding 3 chunk modes:
     /// "ht-range-v2", "ht-constant", "ht-samples+zstd", "ht-samples",
-    /// "ht-zero-residual", "ht-lattice" (3.3), "ht-range-2d" (3.6).
+    /// "ht-zero-residual", "ht-lattice" (3.3), "ht-range-2d" (3.6), "ht-static-rans" (3.7).
     std::string coder;
     /// Coding 3 HT chunks: the chunk mode ("range", "constant", "samples",
-    /// "zero-residual", "lattice", "range-2d"); empty for every other section.
+    /// "zero-residual", "lattice", "range-2d", "static"); empty for every other section.
     std::string mode;
     std::string description;  // one line for people, naming the spec section
     uint64_t count = 0;       // sections of this type

@@ -88,6 +88,12 @@ void check_options(const ContainerWriteOptions& o) {
                     "the MT (an MT alone stores its field losslessly)");
     if (o.max_error > 0 && o.ht_errors)
         throw Error(ErrorCode::InvalidArgument, "a lossy container cannot take errors computed elsewhere");
+    if (o.fast_decode && o.table != tlod::TableLayout::compact)
+        throw Error(ErrorCode::InvalidArgument,
+                    "fast decoding (chunk mode 6, format 3.7) needs the compact table: the full one is for "
+                    "readers older than 3.2");
+    if (o.fast_decode && !o.ht)
+        throw Error(ErrorCode::InvalidArgument, "fast decoding codes the HT's field: the container has no HT");
 }
 
 /// `o` with an automatic brick size settled for these dims: every write path
@@ -110,6 +116,7 @@ HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
     e.table = o.table;
     // The full table is for readers older than 3.2: no 3.6 chunk mode either.
     e.range_2d = o.range_2d && o.table == tlod::TableLayout::compact;
+    e.fast_decode = o.fast_decode;
     return e;
 }
 

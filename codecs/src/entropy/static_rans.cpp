@@ -2,6 +2,7 @@
 // step is inline in the header; what runs once per chunk is here.
 #include "static_rans.hpp"
 
+#include <algorithm>
 #include <bit>
 
 #include "tetlod/core/error.hpp"
@@ -153,19 +154,33 @@ std::optional<std::size_t> read_tables(std::span<const std::byte> in, std::span<
     return r.finish();
 }
 
-DecodeTables::DecodeTables(std::span<const Frequencies> tables)
-    : slots_(tables.size() * kProbTotal, uint32_t(kSymbols) << 23) {
+DecodeTables::DecodeTables(std::span<const Frequencies> tables, std::vector<uint32_t>& storage)
+    : block_(tables.size(), 0) {
+    if (tables.size() > kMaxContexts) throw Error(ErrorCode::InvalidArgument, "rans: more than 255 contexts");
+    std::size_t used = 0;
+    for (const Frequencies& f : tables) used += f != Frequencies{};
+    storage.resize((used + 1) * kProbTotal);
+    uint32_t* slot = storage.data();
+    uint8_t next = 0;
     for (std::size_t c = 0; c < tables.size(); ++c) {
-        uint32_t* slot = slots_.data() + c * kProbTotal;
+        if (tables[c] == Frequencies{}) continue;
+        block_[c] = next++;
         uint32_t at = 0;
         for (int s = 0; s < kSymbols; ++s) {
             const uint32_t f = tables[c][size_t(s)];
             for (uint32_t k = 0; k < f && at < kProbTotal; ++k) slot[at++] = f | k << 12 | uint32_t(s) << 23;
         }
-        // An unused context (all zero) keeps slots of symbol kSymbols and
-        // frequency 0: a stream that reads one is corrupt, which the caller
-        // sees in the symbol (the state, 0, stays safe to continue with).
+        // Tables from read_tables or normalize sum to kProbTotal; any other
+        // leaves the rest as unused slots.
+        for (; at < kProbTotal; ++at) slot[at] = uint32_t(kSymbols) << 23;
+        slot += kProbTotal;
     }
+    // The unused contexts' block: a stream that reads it is corrupt (the
+    // caller sees kSymbols); the state, 0, stays safe to continue with.
+    std::fill(slot, slot + kProbTotal, uint32_t(kSymbols) << 23);
+    for (std::size_t c = 0; c < tables.size(); ++c)
+        if (tables[c] == Frequencies{}) block_[c] = next;
+    base_ = storage.data();
 }
 
 std::vector<std::byte> encode(std::span<const Frequencies> tables, std::span<const uint8_t> contexts,

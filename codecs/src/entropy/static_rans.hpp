@@ -58,17 +58,50 @@ std::optional<std::size_t> read_tables(std::span<const std::byte> in, std::span<
 /// Bytes write_tables takes for `tables` (for a writer choosing between codings).
 std::size_t tables_size(std::span<const Frequencies> tables);
 
-/// The decoder's view of a set of tables: per context kProbTotal slots, each
-/// packing the symbol of that slot, its frequency and the slot's offset from
-/// the symbol's first slot (freq | offset << 12 | symbol << 23); an unused
-/// context's slots hold symbol kSymbols, frequency 0.
+/// The decoder's view of a set of tables: per used context kProbTotal slots,
+/// each packing the symbol of that slot, its frequency and the slot's offset
+/// from the symbol's first slot (freq | offset << 12 | symbol << 23), one
+/// block after the other, then one block for every unused context (symbol
+/// kSymbols, frequency 0). Context c's slots start at base() + block(c) *
+/// kProbTotal: a decoding loop copies the block numbers (a byte each) into a
+/// local array, which a store of a decoded byte cannot alias (a table of
+/// pointers, read through the object, was reloaded after every such store).
+/// The slots live in `storage` (a caller's buffer, reused from chunk to
+/// chunk: a fresh allocation of this size per chunk was page faults).
 class DecodeTables {
 public:
-    explicit DecodeTables(std::span<const Frequencies> tables);
-    const uint32_t* context(std::size_t c) const { return slots_.data() + c * kProbTotal; }
+    static constexpr std::size_t kMaxContexts = 255;  // block numbers are bytes
+    DecodeTables(std::span<const Frequencies> tables, std::vector<uint32_t>& storage);
+    const uint32_t* base() const { return base_; }
+    uint8_t block(std::size_t c) const { return block_[c]; }
+    const uint32_t* context(std::size_t c) const { return base_ + std::size_t(block_[c]) * kProbTotal; }
 
 private:
-    std::vector<uint32_t> slots_;
+    const uint32_t* base_ = nullptr;
+    std::vector<uint8_t> block_;
+};
+
+/// A copy of a stream followed by kPad zero bytes, so that the readers below
+/// may load a few bytes past its end without a branch. The bytes live in
+/// `storage` (reused by the caller).
+class PaddedStream {
+public:
+    /// Room for kMaxUnchecked symbols of 2 bytes past the end between two
+    /// Decoder::check() calls, and for RawBitReader's 8-byte look-ahead.
+    static constexpr std::size_t kMaxUnchecked = 64;
+    static constexpr std::size_t kPad = 2 * kMaxUnchecked + 32;
+    PaddedStream(std::span<const std::byte> in, std::vector<std::byte>& storage) : size_(in.size()) {
+        storage.assign(in.size() + kPad, std::byte{0});
+        if (!in.empty()) std::memcpy(storage.data(), in.data(), in.size());
+        data_ = storage.data();
+    }
+    const std::byte* begin() const { return data_; }
+    const std::byte* end() const { return data_ + size_; }
+    std::size_t size() const { return size_; }
+
+private:
+    const std::byte* data_ = nullptr;
+    std::size_t size_ = 0;
 };
 
 /// Codes `symbols[i]` with the table `tables[contexts[i]]` (every one used and
@@ -78,31 +111,30 @@ private:
 std::vector<std::byte> encode(std::span<const Frequencies> tables, std::span<const uint8_t> contexts,
                               std::span<const uint8_t> symbols);
 
-/// Reads a stream of encode(): next<K>() gives the symbol of state K from the
-/// slots of its context; a caller alternates K = 0, 1, 0, ... as encode did.
-/// A context without a table gives kSymbols (the stream is corrupt).
+/// Reads a stream of encode(): next() gives the symbol of the current state
+/// from the slots of its context, then makes the other state current, so
+/// that successive calls alternate the states as encode() did; check() after
+/// every PaddedStream::kMaxUnchecked of them at most, and before the end. A context
+/// without a table gives kSymbols (the stream is corrupt). A value type of a
+/// few words: a decoding loop keeps a copy in locals (registers).
 class Decoder {
 public:
-    explicit Decoder(std::span<const std::byte> stream) : buf_(stream.size() + kPad) {
-        if (!stream.empty()) std::memcpy(buf_.data(), stream.data(), stream.size());
-        p_ = buf_.data();
-        end_ = buf_.data() + stream.size();
-        if (stream.size() < 8) {
+    explicit Decoder(const PaddedStream& s) : p_(s.begin()), end_(s.end()) {
+        if (s.size() < 8) {
             overrun_ = true;
             p_ = end_;
-            x_ = {kStateLow, kStateLow};
             return;
         }
-        x_[0] = word32();
-        x_[1] = word32();
-        // A valid state is never below kStateLow; one that is would shrink
-        // forever (and read a word at every step).
-        if (x_[0] < kStateLow || x_[1] < kStateLow) overrun_ = true;
+        std::memcpy(&x0_, p_, 4);  // little-endian hosts only (static_rans.cpp checks)
+        std::memcpy(&x1_, p_ + 4, 4);
+        p_ += 8;
+        // A valid state is never below kStateLow; one that is would read a
+        // word at every step.
+        if (x0_ < kStateLow || x1_ < kStateLow) overrun_ = true;
     }
 
-    template <int K>
     [[gnu::always_inline]] int next(const uint32_t* slots) {
-        uint32_t x = x_[K];
+        uint32_t x = x0_;
         const uint32_t e = slots[x & (kProbTotal - 1)];
         x = (e & 0xFFF) * (x >> kProbBits) + ((e >> 12) & 0x7FF);
         // Refill without a branch on the data: the word is always loaded (the
@@ -112,29 +144,27 @@ public:
         std::memcpy(&w, p_, 2);
         x = (x << (16 * need)) | (uint32_t(w) & (0u - need));
         p_ += 2 * need;
-        if (p_ > end_) [[unlikely]]
-            overrun_ = true, p_ = end_;  // reads zeros from now on
-        x_[K] = x;
+        x0_ = x1_;
+        x1_ = x;
         return int(e >> 23);
     }
+    /// Between two calls at most PaddedStream::kMaxUnchecked next(): past the
+    /// end they read the padding's zeros, and this notes the overrun and keeps
+    /// reading zeros (a per-symbol check cost the loop an instruction a point).
+    [[gnu::always_inline]] void check() {
+        if (p_ > end_) [[unlikely]]
+            overrun_ = true, p_ = end_;
+    }
 
-    bool overrun() const { return overrun_; }
+    bool overrun() const { return overrun_ || p_ > end_; }
     /// After the last symbol: true when the stream was exactly what encode()
     /// writes (both states back at their start, every word read).
-    bool ended_exactly() const { return !overrun_ && p_ == end_ && x_[0] == kStateLow && x_[1] == kStateLow; }
+    bool ended_exactly() const { return !overrun() && p_ == end_ && x0_ == kStateLow && x1_ == kStateLow; }
 
 private:
-    static constexpr std::size_t kPad = 16;
-    uint32_t word32() {
-        uint32_t v;
-        std::memcpy(&v, p_, 4);
-        p_ += 4;
-        return v;  // little-endian hosts only (the build checks)
-    }
-    std::vector<std::byte> buf_;
-    const std::byte* p_ = nullptr;
-    const std::byte* end_ = nullptr;
-    std::array<uint32_t, 2> x_{kStateLow, kStateLow};
+    const std::byte* p_;
+    const std::byte* end_;
+    uint32_t x0_ = kStateLow, x1_ = kStateLow;
     bool overrun_ = false;
 };
 
@@ -160,14 +190,11 @@ private:
 };
 
 /// Reads RawBitWriter's stream: take(n) after refill() gives the next n bits
-/// (n <= 56). Past the end it gives zeros and sets overrun().
+/// (n <= 56). Past the end it gives zeros and overrun() turns true. A value
+/// type, as Decoder.
 class RawBitReader {
 public:
-    explicit RawBitReader(std::span<const std::byte> in) : buf_(in.size() + kPad) {
-        if (!in.empty()) std::memcpy(buf_.data(), in.data(), in.size());
-        p_ = buf_.data();
-        end_ = buf_.data() + in.size();
-    }
+    explicit RawBitReader(const PaddedStream& s) : p_(s.begin()), begin_(s.begin()), end_(s.end()) {}
     /// At least 56 bits valid after it, without a branch on the data.
     [[gnu::always_inline]] void refill() {
         uint64_t w;
@@ -176,37 +203,38 @@ public:
         p_ += (63 - n_) >> 3;
         n_ |= 56;
         // The accumulator runs up to 8 bytes ahead of the bits taken, so p_ may
-        // pass the end on a valid stream; past end_ + 8 it only loads padding.
+        // pass the end on a valid stream; past end_ + 8 it has passed it for
+        // sure (the bits taken are 8 (p_ - begin_) - n_ > 8 size), and only
+        // loads padding from then on.
         if (p_ > end_ + 8) [[unlikely]]
-            p_ = end_ + 8;
+            p_ = end_ + 8, over_ = true;
     }
     [[gnu::always_inline]] uint64_t take(int bits) {
         const uint64_t v = acc_ & ((uint64_t{1} << bits) - 1);
         acc_ >>= bits;
         n_ -= bits;
-        consumed_ += uint64_t(bits);
         return v;
     }
     /// Whether more bits were taken than the stream holds.
-    bool overrun() const { return consumed_ > 8 * uint64_t(end_ - buf_.data()); }
+    bool overrun() const { return over_ || taken() > 8 * size(); }
     /// After the last take: true when the stream held exactly the bits taken,
-    /// padded to a byte with zeros.
+    /// padded to a whole byte with zeros.
     bool ended_exactly() const {
-        if (overrun()) return false;
-        const uint64_t size = uint64_t(end_ - buf_.data());
-        if ((consumed_ + 7) / 8 != size) return false;
-        const unsigned pad = unsigned(8 * size - consumed_);
-        return pad == 0 || (uint8_t(buf_[size - 1]) >> (8 - pad)) == 0;
+        if (overrun() || (taken() + 7) / 8 != size()) return false;
+        const unsigned pad = unsigned(8 * size() - taken());
+        return pad == 0 || (uint8_t(begin_[size() - 1]) >> (8 - pad)) == 0;
     }
 
 private:
-    static constexpr std::size_t kPad = 24;  // end_ + 8 plus an 8-byte load
-    std::vector<std::byte> buf_;
-    const std::byte* p_ = nullptr;
-    const std::byte* end_ = nullptr;
+    uint64_t size() const { return uint64_t(end_ - begin_); }
+    // Every byte before p_ went into the accumulator, of which n_ bits are left.
+    uint64_t taken() const { return 8 * uint64_t(p_ - begin_) - uint64_t(n_); }
+    const std::byte* p_;
+    const std::byte* begin_;
+    const std::byte* end_;
     uint64_t acc_ = 0;
     int n_ = 0;
-    uint64_t consumed_ = 0;
+    bool over_ = false;
 };
 
 }  // namespace tetlod::rans

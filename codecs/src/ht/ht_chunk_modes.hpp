@@ -11,7 +11,11 @@
 //                  multiple of the file's step: its indices range coded
 //                  (ht_lattice_chunk.hpp);
 //   range-2d       (field only, format 3.6) range's stream with the
-//                  two-dimensional contexts of §7.6 (ht_field_chunk_coder.hpp).
+//                  two-dimensional contexts of §7.6 (ht_field_chunk_coder.hpp);
+//   static         (field only, format 3.7) one symbol per point from tables
+//                  the chunk carries, static-table rANS: larger, decodes
+//                  several times faster; written only when asked for
+//                  (fast_decode; ht_static_chunk_coder.hpp).
 // Range coding wins on most chunks; the others bound the cost of constant,
 // sparse and incompressible chunks, where the range coder loses to zstd.
 #include <algorithm>
@@ -22,6 +26,7 @@
 #include "ht_error_chunk_coder.hpp"
 #include "ht_field_chunk_coder.hpp"
 #include "ht_lattice_chunk.hpp"
+#include "ht_static_chunk_coder.hpp"
 #include "tetlod/format/byte_io.hpp"
 #include "tetlod/format/container.hpp"
 
@@ -36,8 +41,9 @@ enum ChunkMode : uint32_t {
     kModeZeroResidual = 3,
     kModeLattice = 4,  // format 3.3
     kModeRange2d = 5,  // format 3.6
+    kModeStatic = 6,   // format 3.7
 };
-/// Spec §6.4: constant and zero-residual chunks hold at most 2^22 values, so
+/// Spec §6.4: constant, zero-residual and static chunks hold at most 2^22 values, so
 /// a chunk (96 bytes of table entries at least) expands no more than a zstd frame.
 constexpr uint64_t kMaxModelledPoints = uint64_t{1} << 22;
 
@@ -49,6 +55,7 @@ inline const char* chunk_mode_name(uint32_t mode) {
         case kModeZeroResidual: return "zero-residual";
         case kModeLattice: return "lattice";
         case kModeRange2d: return "range-2d";
+        case kModeStatic: return "static";
         default: return "unknown";
     }
 }
@@ -96,6 +103,9 @@ struct ChunkModeChoice {
     int zstd_level = 19;   // level of the samples mode's frames
     double max_error = 0;  // the file's stated bound (spec §5.1): > 0 tries the lattice mode
     bool range_2d = true;  // may choose range-2d (format 3.6) for field chunks
+    // Field chunks only in the modes that decode fast (constant, zero-residual,
+    // static of format 3.7, samples when smaller than static), whatever their size.
+    bool fast_decode = false;
 };
 
 /// Keeps the smaller of `best` and `cand` (the earlier one on a tie, so the
@@ -152,6 +162,24 @@ bool zero_residuals(const Geometry& G, const T* v, const HtChunk& c) {
     return check.zero;
 }
 
+/// A field chunk for fast decoding (ChunkModeChoice::fast_decode): constant
+/// when every value is the same, zero-residual when every value is its
+/// prediction, else static, or samples where zstd makes it smaller (zstd
+/// decodes at about 1 GB/s). The range modes are not tried: they are the slow
+/// ones. Lossy files' lattice mode neither: its indices are range coded.
+template <class T>
+CodedSection encode_field_chunk_fast(const Geometry& G, const T* v, const HtChunk& c, const ChunkModeChoice& o) {
+    using D = Dom<T>;
+    constexpr int w = int(sizeof(T));
+    const auto raw = gather_chunk<w>(G, c, [&](int64_t i) { return uint64_t(std::bit_cast<typename D::U>(v[i])); });
+    if (all_equal(raw, w)) return coded(std::vector<std::byte>(raw.begin(), raw.begin() + w), kModeConstant);
+    StaticChunk st = encode_static_chunk<T>(G, v, c);
+    if (st.zero_residuals) return coded({}, kModeZeroResidual);
+    CodedSection best = coded(std::move(st.bytes), kModeStatic);
+    if (auto samples = samples_mode(raw, best.bytes.size(), o)) keep_smaller(best, std::move(*samples));
+    return best;
+}
+
 /// Bytes a range-2d stream must save over mode 0's to be kept (see
 /// encode_field_chunk_v3).
 constexpr std::size_t kRange2dMargin = 4;
@@ -163,6 +191,10 @@ CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk&
     if (c.points == 0) return coded({}, kModeRange);
     if (o.forced == int(kModeRange)) return coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
     if (o.forced == int(kModeRange2d)) return coded(encode_field_chunk_v2<T, true>(G, v, c), kModeRange2d);
+    if (o.forced == int(kModeStatic))
+        return c.points <= kMaxModelledPoints ? coded(encode_static_chunk<T>(G, v, c).bytes, kModeStatic)
+                                              : coded(encode_field_chunk_v2<T>(G, v, c), kModeRange);
+    if (o.fast_decode && o.forced < 0 && c.points <= kMaxModelledPoints) return encode_field_chunk_fast<T>(G, v, c, o);
     // Both context sets, the two-dimensional one kept only when it saves at
     // least kRange2dMargin bytes: a file is 3.6 only when it pays, and a section
     // whose mode differs from its neighbours' costs about a byte of the
@@ -207,7 +239,8 @@ template <class T>
 CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
                                    int m, ChunkModeChoice o) {
     if (c.diamonds == 0) return coded({}, kModeRange);
-    if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice) || o.forced == int(kModeRange2d))
+    if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice) || o.forced == int(kModeRange2d) ||
+        o.forced == int(kModeStatic))
         o.forced = int(kModeRange);  // field-only modes
     CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
     if (o.forced == int(kModeRange)) return range;
@@ -259,6 +292,8 @@ std::string decode_field_chunk_v3(const Geometry& G, T* v, const HtChunk& c, uin
             return decode_lattice_chunk<T>(G, v, c, lattice_step, in);
         case kModeRange2d:
             return decode_field_chunk_v2<T, true>(G, v, c, in) ? "" : "malformed range-coded stream";
+        case kModeStatic:
+            return decode_static_chunk<T>(G, v, c, in);
         default:
             return "unknown chunk mode " + std::to_string(mode);
     }

@@ -217,6 +217,112 @@ struct FieldPointDecoder {
     }
 };
 
+/// The first pass of a block of n points of a row of class Cls (n <= kDecodeBlock),
+/// from x on (field index idx, lattice slot s): what does not depend on the
+/// values the row decodes, per point the prediction, its spread and the sum
+/// and count of the neighbours' magnitudes other than the row's previous
+/// point. A point of a row of classes 0..2 is predicted from coarser points
+/// and points of earlier classes, and its context reads other rows and x ± h
+/// (another class): nothing the row itself sets, so this pass sees the values
+/// a one-pass walk sees. Shared by the decoders of modes 0, 5 and 6.
+constexpr int64_t kDecodeBlock = 64;
+template <class T, int Cls>
+[[gnu::always_inline]] inline void predict_block(const Geometry& G, const ChunkFrame& Fr, int t, const ChunkRow& r,
+                                             const RowPredictor<T, Cls>& P, const LatticeView& lv,
+                                             const RowEvenStrides& even, const T* vv, int64_t x, int64_t n,
+                                             int64_t idx, int64_t s, int64_t didx, int64_t ds, int64_t* pp,
+                                             uint64_t* psp, uint64_t* osum, uint32_t* on) {
+    const int64_t xs = r.step;
+    int64_t i = 0, xi = x, ii = idx, si = s;
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, uint8_t>) {
+        // u8 rows whose points lie two bytes apart (a chunk's
+        // window, or cycle 0 of the whole field): eight predictions
+        // at once, in 16-bit lanes (sums of at most 8 · 255 · 1, or
+        // 4 · 255 + 2 · 2 · 255, fit), the same sums, shifts and
+        // spread as RowPredictor::at. Only where the scalar walk
+        // takes at() with the fine stencil too (or class 0), for all
+        // eight points and a ninth: a 16-byte load then reads
+        // nothing beyond what that ninth point's stencil reads.
+        if (didx == 2) {
+            const __m128i lo8 = _mm_set1_epi16(0x00FF);
+            // Leading points before the fine stencil's range: scalar.
+            if constexpr (Cls > 0)
+                for (; i < n && xi < P.fine_lo && xi <= P.coarse_hi; ++i, xi += xs, ii += didx, si += ds) {
+                    const Prediction pr = P.at(vv, ii, xi);
+                    pp[i] = pr.p;
+                    psp[i] = pr.spread;
+                    const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+                    osum[i] = o.sum;
+                    on[i] = o.n;
+                }
+            for (; i + 8 <= n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
+                const int64_t xlast = xi + 7 * xs;
+                if (xlast > P.coarse_hi) break;
+                if (Cls > 0 && (xi < P.fine_lo || xlast > P.fine_hi)) break;
+                // The 16 bytes from each stencil point of the first:
+                // its byte 15 is read by a ninth point's stencil when
+                // there is one (fixed, in the fine range); otherwise
+                // the 16 bytes from one before, whose byte 0 the
+                // stencil of the point before the first read (the
+                // row's previous point, fixed and in the fine range).
+                const bool next = i + 8 < n && xlast + xs <= P.coarse_hi &&
+                                  (Cls == 0 || xlast + xs <= P.fine_hi);
+                const bool prev = i > 0 && (Cls == 0 || xi - xs >= P.fine_lo);
+                if (!next && !prev) break;
+                auto ld = [&](int k) {
+                    const uint8_t* a = vv + ii + P.off[k];
+                    return next ? _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)), lo8)
+                                : _mm_srli_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a - 1)), 8);
+                };
+                __m128i w = ld(0);
+                __m128i sum = w, mn = w, mx = w;
+                for (int k = 1; k < kCoarseCount<Cls>; ++k) {
+                    w = ld(k);
+                    sum = _mm_add_epi16(sum, w);
+                    mn = _mm_min_epi16(mn, w);
+                    mx = _mm_max_epi16(mx, w);
+                }
+                __m128i p;
+                if constexpr (Cls == 0) {
+                    p = _mm_srli_epi16(sum, 3);
+                } else {
+                    __m128i fine = _mm_setzero_si128();
+                    for (int k = 0; k < kFineCount<Cls>; ++k) {
+                        w = ld(kCoarseCount<Cls> + k);
+                        fine = _mm_add_epi16(fine, w);
+                        mn = _mm_min_epi16(mn, w);
+                        mx = _mm_max_epi16(mx, w);
+                    }
+                    p = Cls == 1 ? _mm_srli_epi16(_mm_add_epi16(sum, _mm_add_epi16(fine, fine)), 3)
+                                 : _mm_srli_epi16(_mm_add_epi16(_mm_add_epi16(sum, sum), fine), 3);
+                }
+                alignas(16) uint16_t pv[8], sv[8];
+                _mm_store_si128(reinterpret_cast<__m128i*>(pv), p);
+                _mm_store_si128(reinterpret_cast<__m128i*>(sv), _mm_sub_epi16(mx, mn));
+                for (int j = 0; j < 8; ++j) {
+                    pp[i + j] = pv[j];
+                    psp[i + j] = sv[j];
+                    const LatticeView::Others o =
+                        lv.others_in_order(Cls, si + j * ds, even.even1, even.even2);
+                    osum[i + j] = o.sum;
+                    on[i + j] = o.n;
+                }
+            }
+        }
+    }
+#endif
+    for (; i < n; ++i, xi += xs, ii += didx, si += ds) {
+        const Prediction pr =
+            P.fixed(xi) ? P.at(vv, ii, xi) : predict_v2(G, vv, t, Cls, xi, r.y, r.z, Fr.cb);
+        pp[i] = pr.p;
+        psp[i] = pr.spread;
+        const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
+        osum[i] = o.sum;
+        on[i] = o.n;
+    }
+}
+
 /// walk_field_chunk for FieldPointDecoder, the same points in the same order
 /// with the same predictions and contexts, in two passes over blocks of a
 /// row: first what does not depend on the values the row decodes (the
@@ -247,7 +353,7 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
                 rc::Decoder dec = f.dec;
                 rc::IntModel* const models = f.models->m[Cls];
                 uint32_t wprev = lv.mag[s - 2];
-                constexpr int64_t kBlock = 64;
+                constexpr int64_t kBlock = kDecodeBlock;
                 // Plain arrays, not Prediction / Others (whose member
                 // initializers made every row clear them).
                 int64_t pp[kBlock];
@@ -257,94 +363,7 @@ void decode_field_rows(const Geometry& G, T* v, const HtChunk& c, const ChunkLat
                 const int64_t x1 = r.x1, xs = r.step;
                 for (int64_t x = r.x0; x <= x1;) {
                     const int64_t n = std::min<int64_t>(kBlock, (x1 - x) / xs + 1);
-                    int64_t i = 0, xi = x, ii = idx, si = s;
-#if defined(__SSE2__)
-                    if constexpr (std::is_same_v<T, uint8_t>) {
-                        // u8 rows whose points lie two bytes apart (a chunk's
-                        // window, or cycle 0 of the whole field): eight predictions
-                        // at once, in 16-bit lanes (sums of at most 8 · 255 · 1, or
-                        // 4 · 255 + 2 · 2 · 255, fit), the same sums, shifts and
-                        // spread as RowPredictor::at. Only where the scalar walk
-                        // takes at() with the fine stencil too (or class 0), for all
-                        // eight points and a ninth: a 16-byte load then reads
-                        // nothing beyond what that ninth point's stencil reads.
-                        if (didx == 2) {
-                            const __m128i lo8 = _mm_set1_epi16(0x00FF);
-                            // Leading points before the fine stencil's range: scalar.
-                            if constexpr (Cls > 0)
-                                for (; i < n && xi < P.fine_lo && xi <= P.coarse_hi; ++i, xi += xs, ii += didx, si += ds) {
-                                    const Prediction pr = P.at(vv, ii, xi);
-                                    pp[i] = pr.p;
-                                    psp[i] = pr.spread;
-                                    const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
-                                    osum[i] = o.sum;
-                                    on[i] = o.n;
-                                }
-                            for (; i + 8 <= n; i += 8, xi += 8 * xs, ii += 16, si += 8 * ds) {
-                                const int64_t xlast = xi + 7 * xs;
-                                if (xlast > P.coarse_hi) break;
-                                if (Cls > 0 && (xi < P.fine_lo || xlast > P.fine_hi)) break;
-                                // The 16 bytes from each stencil point of the first:
-                                // its byte 15 is read by a ninth point's stencil when
-                                // there is one (fixed, in the fine range); otherwise
-                                // the 16 bytes from one before, whose byte 0 the
-                                // stencil of the point before the first read (the
-                                // row's previous point, fixed and in the fine range).
-                                const bool next = i + 8 < n && xlast + xs <= P.coarse_hi &&
-                                                  (Cls == 0 || xlast + xs <= P.fine_hi);
-                                const bool prev = i > 0 && (Cls == 0 || xi - xs >= P.fine_lo);
-                                if (!next && !prev) break;
-                                auto ld = [&](int k) {
-                                    const uint8_t* a = vv + ii + P.off[k];
-                                    return next ? _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)), lo8)
-                                                : _mm_srli_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a - 1)), 8);
-                                };
-                                __m128i w = ld(0);
-                                __m128i sum = w, mn = w, mx = w;
-                                for (int k = 1; k < kCoarseCount<Cls>; ++k) {
-                                    w = ld(k);
-                                    sum = _mm_add_epi16(sum, w);
-                                    mn = _mm_min_epi16(mn, w);
-                                    mx = _mm_max_epi16(mx, w);
-                                }
-                                __m128i p;
-                                if constexpr (Cls == 0) {
-                                    p = _mm_srli_epi16(sum, 3);
-                                } else {
-                                    __m128i fine = _mm_setzero_si128();
-                                    for (int k = 0; k < kFineCount<Cls>; ++k) {
-                                        w = ld(kCoarseCount<Cls> + k);
-                                        fine = _mm_add_epi16(fine, w);
-                                        mn = _mm_min_epi16(mn, w);
-                                        mx = _mm_max_epi16(mx, w);
-                                    }
-                                    p = Cls == 1 ? _mm_srli_epi16(_mm_add_epi16(sum, _mm_add_epi16(fine, fine)), 3)
-                                                 : _mm_srli_epi16(_mm_add_epi16(_mm_add_epi16(sum, sum), fine), 3);
-                                }
-                                alignas(16) uint16_t pv[8], sv[8];
-                                _mm_store_si128(reinterpret_cast<__m128i*>(pv), p);
-                                _mm_store_si128(reinterpret_cast<__m128i*>(sv), _mm_sub_epi16(mx, mn));
-                                for (int j = 0; j < 8; ++j) {
-                                    pp[i + j] = pv[j];
-                                    psp[i + j] = sv[j];
-                                    const LatticeView::Others o =
-                                        lv.others_in_order(Cls, si + j * ds, even.even1, even.even2);
-                                    osum[i + j] = o.sum;
-                                    on[i + j] = o.n;
-                                }
-                            }
-                        }
-                    }
-#endif
-                    for (; i < n; ++i, xi += xs, ii += didx, si += ds) {
-                        const Prediction pr =
-                            P.fixed(xi) ? P.at(vv, ii, xi) : predict_v2(G, vv, t, Cls, xi, r.y, r.z, Fr.cb);
-                        pp[i] = pr.p;
-                        psp[i] = pr.spread;
-                        const LatticeView::Others o = lv.others_in_order(Cls, si, even.even1, even.even2);
-                        osum[i] = o.sum;
-                        on[i] = o.n;
-                    }
+                    predict_block<T, Cls>(G, Fr, t, r, P, lv, even, vv, x, n, idx, s, didx, ds, pp, psp, osum, on);
                     for (int64_t i = 0; i < n; ++i, idx += didx, s += ds) {
                         if (dec.overrun()) continue;  // a valid stream never reads past its end: skip the rest
                         const uint64_t mean = LatticeView::mean_with_prev(LatticeView::Others{osum[i], on[i]}, wprev);

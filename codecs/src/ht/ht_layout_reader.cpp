@@ -20,18 +20,22 @@ std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::Se
     const uint32_t mode = tlod::section_mode(s.flags);
     const bool zstd = (s.flags & tlod::kSectionZstd) != 0;
     auto bad = [](std::string m) { return std::optional{std::pair{ErrorCode::CorruptData, std::move(m)}}; };
-    if (mode > kModeRange2d ||
-        ((mode == kModeZeroResidual || mode == kModeLattice || mode == kModeRange2d) && !field))
+    if (mode > kModeStatic ||
+        ((mode == kModeZeroResidual || mode == kModeLattice || mode == kModeRange2d || mode == kModeStatic) && !field))
         return std::optional{std::pair{ErrorCode::UnsupportedFeature,
                                        "unknown chunk mode " + std::to_string(mode) +
                                            (field ? "" : " for error codes")}};
     if (n == 0 && (mode != kModeRange || s.raw_size != 0)) return bad("an empty chunk must be an empty range-mode section");
     if (zstd && mode != kModeSamples) return bad(std::string(chunk_mode_name(mode)) + " chunks must not be zstd-compressed");
-    if ((mode == kModeConstant || mode == kModeZeroResidual) && n > kMaxModelledPoints)
+    if ((mode == kModeConstant || mode == kModeZeroResidual || mode == kModeStatic) && n > kMaxModelledPoints)
         return bad(std::string(chunk_mode_name(mode)) + " chunk of " + std::to_string(n) + " values (at most 2^22)");
     if (mode == kModeConstant && s.raw_size != w)
         return bad("constant chunk of " + std::to_string(s.raw_size) + " bytes, expected " + std::to_string(w));
     if (mode == kModeZeroResidual && s.raw_size != 0) return bad("zero-residual chunk with stored bytes");
+    // Tables of at least one used context (11 bytes), a length, two states.
+    if (mode == kModeStatic && s.raw_size < kMinStaticBytes)
+        return bad("static chunk of " + std::to_string(s.raw_size) + " bytes (at least " +
+                   std::to_string(kMinStaticBytes) + ")");
     if (mode == kModeLattice && !lattice)
         return bad("lattice chunk in a file without a lattice step (not LOSSY, or an integer field.max_error below 1)");
     // n * w cannot overflow: n is a chunk's point count (< 2^35), w <= 8.

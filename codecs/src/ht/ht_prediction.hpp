@@ -36,6 +36,21 @@ struct LatticeView {
         }
         return mean_of(sum - n, n);
     }
+    /// neighbour_mean(s) without x − 2h, the row's previous point: the context
+    /// of chunk mode 6 (spec §7.6, "Static tables"), which a decoder works out
+    /// for a whole block of a row before decoding it. For a point of class 0..2
+    /// it equals mean_of(others_in_order(...)) (unset slots hold 0).
+    [[gnu::always_inline]] uint64_t neighbour_mean_without_prev(int64_t s) const {
+        const uint32_t* q = mag + s;
+        const uint32_t v[8] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2 * px], q[-2 * pxy]};
+        uint64_t sum = 0;
+        uint32_t n = 0;
+        for (uint32_t w : v) {
+            sum += w;
+            n += w != 0;
+        }
+        return mean_of(sum - n, n);
+    }
     /// floor(sum / n), 0 when sum is 0 (n may then be 0). Most neighbourhoods
     /// are all zero residuals, and the rest small: a multiply by the reciprocal
     /// instead of a division, which was the largest single cost of the mean in

@@ -51,6 +51,12 @@ inline constexpr uint16_t kVersion3_5_Minor = 5;
 inline constexpr uint16_t kVersion3_6_Minor = 6;
 /// The first chunk mode of 3.6.
 inline constexpr uint32_t kFirstChunkModeOf3_6 = 5;
+/// 3.7: HT chunk mode 6, static (spec §6.4, §7.6), field chunks of any file.
+/// Written only by files with such a chunk (a writer asked for fast decoding):
+/// a 3.6 reader refuses it (unknown chunk mode).
+inline constexpr uint16_t kVersion3_7_Minor = 7;
+/// The first chunk mode of 3.7.
+inline constexpr uint32_t kFirstChunkModeOf3_7 = 6;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).

@@ -33,8 +33,9 @@ struct HtEncodeOptions {
     /// mode (range-2d only when it saves 4 bytes); 0 range, 1 constant, 2
     /// samples, 3 zero-residual, 4 lattice (field chunks of lossy files whose
     /// values are all on the step's lattice, format 3.3), 5 range-2d (field
-    /// chunks, format 3.6) force that mode wherever it can code the chunk
-    /// (tests), range elsewhere.
+    /// chunks, format 3.6), 6 static (field chunks of at most 2^22 points,
+    /// format 3.7) force that mode wherever it can code the chunk (tests),
+    /// range elsewhere.
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
@@ -50,6 +51,12 @@ struct HtEncodeOptions {
     /// Field chunks may be coded in range-2d (chunk mode 5, format 3.6) where it
     /// is smaller; false writes only modes that 3.0-3.5 readers know.
     bool range_2d = true;
+    /// Field chunks in the modes that decode fast: static-table rANS (chunk mode
+    /// 6, format 3.7, spec §7.6), or constant, zero-residual, samples where
+    /// they apply or are smaller. Several times faster to decode, larger
+    /// (docs/archival.md, "Fast decoding"). Error chunks are unchanged. Needs the
+    /// compact table.
+    bool fast_decode = false;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
     /// > 0: encode_ht stops and returns false as soon as its chunk sections
