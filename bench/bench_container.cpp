@@ -5,7 +5,8 @@
 // accuracy at 0.1% and 1% of the value range (bound checked on decode), and the
 // lossless .tlod (field + errors + hierarchy), its ratio to zstd-19 and where
 // its bytes go; then encode and decode MB/s of each; the lossy .tlod (format
-// 3.1) at 0.1% and 1% of the range against the lossless one and zstd-19. Then the bytes read for a coarse LOD and a small full-resolution box on
+// 3.1) at 0.1% and 1% of the range against the lossless one and zstd-19; the
+// lossless .tlod written for decoding speed (--fast-decode, format 3.7). Then the bytes read for a coarse LOD and a small full-resolution box on
 // a 257^3 sample. Usage: bench_container [DATA_DIR] [--quick]
 // (--quick: generated volumes at 33^3, each timing one call, no 257^3 part).
 #include <algorithm>
@@ -58,6 +59,7 @@ struct Measured {
     double range = 0;
     PeerResult zstd, hdf5, zfp_rev, zfp_fine, zfp_coarse;
     TlodResult tlod, lossy_fine, lossy_coarse;  // lossless; lossy at 0.1% and 1% of the range
+    TlodResult fast;                            // lossless, --fast-decode (format 3.7)
 };
 
 // A size cell: bytes, "n/a" when the peer is missing, "!" after a lossless
@@ -125,6 +127,7 @@ int main(int argc, char** argv) {
         m.zfp_fine = run_zfp_accuracy(v, 0.001 * m.range, min_seconds);
         m.zfp_coarse = run_zfp_accuracy(v, 0.01 * m.range, min_seconds);
         m.tlod = run_tlod(v, tmp, min_seconds);
+        m.fast = run_tlod_fast(v, tmp, min_seconds);
         // Lossy .tlod (format 3.1) at the zfp columns' bounds; a constant volume stays lossless.
         if (m.range > 0) {
             m.lossy_fine = run_tlod_lossy(v, 0.001 * m.range, tmp, min_seconds);
@@ -132,7 +135,7 @@ int main(int argc, char** argv) {
         } else {
             m.lossy_fine = m.lossy_coarse = m.tlod;
         }
-        if (!m.tlod.exact) {
+        if (!m.tlod.exact || !m.fast.exact) {
             std::fprintf(stderr, "%s: .tlod round trip FAILED\n", row.name.c_str());
             return 1;
         }
@@ -185,6 +188,14 @@ int main(int argc, char** argv) {
         std::printf("%-36s %11s %11s %11s %11s %11s %11s\n", m.name.c_str(), speed_cell(m.zstd).c_str(),
                     speed_cell(m.hdf5).c_str(), speed_cell(m.zfp_rev).c_str(), speed_cell(m.zfp_fine).c_str(),
                     speed_cell(m.zfp_coarse).c_str(), speed_cell(m.tlod).c_str());
+    std::printf("\nFast decoding (convert --fast-decode: static-table chunks, format 3.7): bytes against the\n"
+                "default .tlod and zstd-19, encode/decode MB/s of both\n");
+    std::printf("%-36s %9s %9s %8s %8s %11s %11s\n", "volume", "tlod", "fast", "/tlod", "/zst", "tlod", "fast");
+    for (const auto& m : ms)
+        std::printf("%-36s %9llu %9s %8.3f %8.3f %11s %11s\n", m.name.c_str(), (unsigned long long)m.tlod.bytes,
+                    size_cell(m.fast, true).c_str(), double(m.fast.bytes) / double(m.tlod.bytes),
+                    double(m.fast.bytes) / double(m.zstd.bytes), speed_cell(m.tlod).c_str(),
+                    speed_cell(m.fast).c_str());
     int above = 0;
     for (const auto& m : ms) above += m.tlod.bytes > m.zstd.bytes;
     std::printf("\n.tlod larger than zstd -19 --long=27 on %d of %zu volumes\n", above, ms.size());

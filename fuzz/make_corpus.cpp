@@ -139,6 +139,9 @@ int main(int argc, char** argv) {
     // Format 3.6: range-2d (mode 5) forced on the field chunks.
     put(root / "ht_sections/v3.6_u8_9x9x5_range2d", ht_parts(sample({9, 9, 5}, ValueType::U8, 4), 1, false, 5));
     put(root / "ht_sections/v3.6_i16_9x9x9_b2_range2d", ht_parts(sample({9, 9, 9}, ValueType::I16, 5), 2, false, 5));
+    // Format 3.7: static (mode 6) forced on the field chunks.
+    put(root / "ht_sections/v3.7_u8_9x9x5_static", ht_parts(sample({9, 9, 5}, ValueType::U8, 4), 1, false, 6));
+    put(root / "ht_sections/v3.7_f64_9x9x9_b2_static", ht_parts(sample({9, 9, 9}, ValueType::F64, 5), 2, false, 6));
     // MT coding 3 (format 3.4): stored bytes (mode 0) and header + raw payload (mode 1),
     // with and without the field. (The coding-1 seeds, *_coding1_*, were written by the
     // 2.1 writer and the coding-2 ones, *_coding2_*, by the 3.0-3.3 writers; both are kept.)

@@ -64,5 +64,8 @@ TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seco
 /// The lossy .tlod (format 3.1, write_container with max_error): bytes, and
 /// max_error the largest |decoded - original| (checked against the bound by the caller).
 TlodResult run_tlod_lossy(const Volume& v, double max_error, const std::string& tmp_dir, double min_seconds);
+/// The lossless .tlod written for decoding speed (`convert --fast-decode`:
+/// static-table chunks, format 3.7).
+TlodResult run_tlod_fast(const Volume& v, const std::string& tmp_dir, double min_seconds);
 
 }  // namespace tetlod::bench

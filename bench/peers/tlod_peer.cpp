@@ -21,12 +21,14 @@ double largest_deviation(const Volume& a, const Volume& b) {
     return worst;
 }
 
-TlodResult run(const Volume& v, const std::string& tmp_dir, double min_seconds, double max_error) {
+TlodResult run(const Volume& v, const std::string& tmp_dir, double min_seconds, double max_error,
+               bool fast_decode = false) {
     TlodResult r;
     r.available = true;
     const std::string path = (std::filesystem::path(tmp_dir) / "bench_peer.tlod").string();
     ContainerWriteOptions o;
     o.max_error = max_error;
+    o.fast_decode = fast_decode;
     o.created = 0;  // no clock read: the same bytes every run
     const double enc = seconds_per_call(
         [&] {
@@ -62,6 +64,10 @@ TlodResult run_tlod(const Volume& v, const std::string& tmp_dir, double min_seco
 
 TlodResult run_tlod_lossy(const Volume& v, double max_error, const std::string& tmp_dir, double min_seconds) {
     return run(v, tmp_dir, min_seconds, max_error);
+}
+
+TlodResult run_tlod_fast(const Volume& v, const std::string& tmp_dir, double min_seconds) {
+    return run(v, tmp_dir, min_seconds, 0, true);
 }
 
 }  // namespace tetlod::bench

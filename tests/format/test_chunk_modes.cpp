@@ -379,13 +379,13 @@ TEST(ChunkModesHostile, StaticRefusedWithSpecificErrors) {
     {  // a used table dropped: its points read the unused tables' block
         auto ss = good;
         std::array<rans::Frequencies, 64> tables;
-        const auto taken = rans::read_tables(ss[big].bytes, tables);
+        const auto taken = rans::read_tables(ss[big].bytes, 33, tables);  // i16: 2 * 16 + 1 symbols
         ASSERT_TRUE(taken.has_value());
         std::size_t used = 0;
         while (tables[used] == rans::Frequencies{}) ++used;
         tables[used] = rans::Frequencies{};
         std::vector<std::byte> bytes;
-        rans::write_tables(tables, bytes);
+        rans::write_tables(tables, 33, bytes);
         bytes.insert(bytes.end(), ss[big].bytes.begin() + std::ptrdiff_t(*taken), ss[big].bytes.end());
         ss[big].bytes = bytes;
         ss[big].info.raw_size = bytes.size();

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -15,6 +16,8 @@
 using namespace tetlod::rans;
 
 namespace {
+
+constexpr int kAlphabet = 17;  // a u8 field's: 0 and 8 bit lengths of either sign
 
 uint32_t sum_of(const Frequencies& f) {
     uint32_t s = 0;
@@ -33,15 +36,15 @@ std::vector<Frequencies> sample_tables() {
     two[0] = 1000, two[15] = 1;
     t.push_back(normalize(two));
     Counts skew{};
-    for (int s = 0; s < kSymbols; ++s) skew[size_t(s)] = uint64_t(1) << (2 * (kSymbols - 1 - s) % 40);
+    for (int s = 0; s < kAlphabet; ++s) skew[size_t(s)] = uint64_t(1) << (2 * (kAlphabet - 1 - s) % 40);
     t.push_back(normalize(skew));
     Counts flat{};
-    flat.fill(5);
+    for (int k = 0; k < kAlphabet; ++k) flat[size_t(k)] = 5;
     t.push_back(normalize(flat));
     std::mt19937_64 rng(7);
     for (int k = 0; k < 20; ++k) {
         Counts c{};
-        for (auto& n : c) n = (rng() % 3 == 0) ? 0 : rng() % 100000;
+        for (int k = 0; k < kAlphabet; ++k) c[size_t(k)] = (rng() % 3 == 0) ? 0 : rng() % 100000;
         t.push_back(normalize(c));
     }
     return t;
@@ -67,6 +70,12 @@ void draw(const std::vector<Frequencies>& tables, std::size_t n, uint64_t seed, 
 }  // namespace
 
 TEST(StaticRans, NormalizeSumsToTheTotalAndKeepsEveryCountedSymbol) {
+    Counts many{};  // every symbol once but one: 128 lifted to 1
+    many.fill(1);
+    many[5] = 1000000;
+    const Frequencies fm = normalize(many);
+    EXPECT_EQ(std::accumulate(fm.begin(), fm.end(), 0u), kProbTotal);
+    EXPECT_TRUE(std::all_of(fm.begin(), fm.end(), [](uint16_t v) { return v >= 1; }));
     for (const Frequencies& f : sample_tables()) {
         const uint32_t s = sum_of(f);
         EXPECT_TRUE(s == 0 || s == kProbTotal) << s;
@@ -84,10 +93,10 @@ TEST(StaticRans, NormalizeSumsToTheTotalAndKeepsEveryCountedSymbol) {
 TEST(StaticRans, TablesRoundTripAndTheirSizeIsExact) {
     const auto tables = sample_tables();
     std::vector<std::byte> bytes{std::byte{0xAB}};  // written after what is there
-    write_tables(tables, bytes);
-    EXPECT_EQ(bytes.size() - 1, tables_size(tables));
+    write_tables(tables, kAlphabet, bytes);
+    EXPECT_EQ(bytes.size() - 1, tables_size(tables, kAlphabet));
     std::vector<Frequencies> back(tables.size());
-    const auto taken = read_tables(std::span(bytes).subspan(1), back);
+    const auto taken = read_tables(std::span(bytes).subspan(1), kAlphabet, back);
     ASSERT_TRUE(taken.has_value());
     EXPECT_EQ(*taken, bytes.size() - 1);
     EXPECT_EQ(back, tables);
@@ -96,35 +105,54 @@ TEST(StaticRans, TablesRoundTripAndTheirSizeIsExact) {
 TEST(StaticRans, MalformedTablesAreRefused) {
     const auto tables = sample_tables();
     std::vector<std::byte> bytes;
-    write_tables(tables, bytes);
+    write_tables(tables, kAlphabet, bytes);
     std::vector<Frequencies> back(tables.size());
     // Every truncation: refused (the last byte holds bits of the last table).
     for (std::size_t n = 0; n < bytes.size(); ++n)
-        EXPECT_FALSE(read_tables(std::span(bytes).first(n), back).has_value()) << n;
-    // A used context with no symbol present.
-    std::vector<std::byte> none{std::byte{0x01}, std::byte{0x00}, std::byte{0x00}};
+        EXPECT_FALSE(read_tables(std::span(bytes).first(n), kAlphabet, back).has_value()) << n;
     std::vector<Frequencies> one(1);
-    EXPECT_FALSE(read_tables(none, one).has_value());
-    // Symbols 0 and 1 present, symbol 0's frequency 2048 leaves nothing for 1:
-    // used(1) present(0b11, 16 bits) then gamma(2048) = 11 zeros, a one, 11 bits.
+    // First symbol after the last, and a last symbol outside the alphabet.
+    RawBitWriter swapped;
+    swapped.put(1, 1), swapped.put(3, 5), swapped.put(2, 5);
+    EXPECT_FALSE(read_tables(swapped.finish(), kAlphabet, one).has_value());
+    RawBitWriter outside;
+    outside.put(1, 1), outside.put(0, 5), outside.put(17, 5);
+    EXPECT_FALSE(read_tables(outside.finish(), kAlphabet, one).has_value());
+    // Symbols 0 and 1 (first 0, last 1, nothing between), symbol 0's frequency
+    // 2048 leaves nothing for 1: gamma(2048) = 11 zeros, a one, 11 bits.
     RawBitWriter w;
-    w.put(1, 1), w.put(3, 16), w.put(0, 11), w.put(1, 1), w.put(0, 11);
-    auto over = w.finish();
-    EXPECT_FALSE(read_tables(over, one).has_value());
+    w.put(1, 1), w.put(0, 5), w.put(1, 5), w.put(0, 11), w.put(1, 1), w.put(0, 11);
+    EXPECT_FALSE(read_tables(w.finish(), kAlphabet, one).has_value());
     // The same with 2047: valid, symbol 1 gets 1.
     RawBitWriter ok;
-    ok.put(1, 1), ok.put(3, 16), ok.put(0, 10), ok.put(1, 1), ok.put(2047 & 1023, 10);
+    ok.put(1, 1), ok.put(0, 5), ok.put(1, 5), ok.put(0, 10), ok.put(1, 1), ok.put(2047 & 1023, 10);
     auto fine = ok.finish();
-    ASSERT_TRUE(read_tables(fine, one).has_value());
+    ASSERT_TRUE(read_tables(fine, kAlphabet, one).has_value());
     EXPECT_EQ(one[0][0], 2047);
     EXPECT_EQ(one[0][1], 1);
-    // Padding bits that are not zero.
-    fine.back() |= std::byte{0x80};
-    EXPECT_FALSE(read_tables(fine, one).has_value());
+    // Padding bits that are not zero (30 bits: frequency 1000 = 9 zeros, a one, 9 bits).
+    RawBitWriter padded;
+    padded.put(1, 1), padded.put(0, 5), padded.put(1, 5), padded.put(0, 9), padded.put(1, 1), padded.put(1000 & 511, 9);
+    auto pad = padded.finish();
+    ASSERT_TRUE(read_tables(pad, kAlphabet, one).has_value());
+    EXPECT_EQ(one[0][1], 1048);
+    pad.back() |= std::byte{0x80};
+    EXPECT_FALSE(read_tables(pad, kAlphabet, one).has_value());
     // A gamma code longer than any frequency (12 zeros).
     RawBitWriter longer;
-    longer.put(1, 1), longer.put(3, 16), longer.put(0, 12), longer.put(1, 1), longer.put(0, 12);
-    EXPECT_FALSE(read_tables(longer.finish(), one).has_value());
+    longer.put(1, 1), longer.put(0, 5), longer.put(1, 5), longer.put(0, 12), longer.put(1, 1), longer.put(0, 12);
+    EXPECT_FALSE(read_tables(longer.finish(), kAlphabet, one).has_value());
+    // The widest alphabet: 129 symbols, 8-bit first and last fields.
+    std::vector<Frequencies> wide(2);
+    Counts c{};
+    c[0] = 5, c[64] = 7, c[128] = 1;
+    wide[1] = normalize(c);
+    std::vector<std::byte> wb;
+    write_tables(wide, kMaxSymbols, wb);
+    std::vector<Frequencies> wback(2);
+    ASSERT_TRUE(read_tables(wb, kMaxSymbols, wback).has_value());
+    EXPECT_EQ(wback, wide);
+    EXPECT_THROW(write_tables(wide, kAlphabet, wb), tetlod::Error);
 }
 
 TEST(StaticRans, SymbolsRoundTripOnEveryLength) {
@@ -184,9 +212,9 @@ TEST(StaticRans, TruncatedAndCorruptStreamsNeverEndExactly) {
         for (auto& b : junk) b = std::byte(rng());
         EXPECT_FALSE(run(junk)) << n;
     }
-    // A context without a table decodes to kSymbols.
+    // A context without a table decodes to kMaxSymbols.
     Decoder d(PaddedStream(stream, storage));
-    EXPECT_EQ(d.next(dt.context(0)), kSymbols);
+    EXPECT_EQ(d.next(dt.context(0)), kMaxSymbols);
 }
 
 TEST(StaticRans, RawBitsRoundTripAndDetectTheirEnd) {

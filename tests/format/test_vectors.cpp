@@ -36,9 +36,9 @@ struct Vector {
     /// Vectors of an older format version are kept, never regenerated: readers
     /// must go on decoding them. (2.1 changed nothing for HT-only files: the 2.0
     /// vectors stand; the 2.1 MT vectors are in test_mt_container.cpp.) Since
-    /// 3.6 only the newest version's vectors are regenerated: a later writer
-    /// may code a chunk its own way (those with the writer's choice could take
-    /// range-2d), and a vector stands for its version.
+    /// 3.6 only the newest version's vectors are regenerated (3.7 now): a later
+    /// writer may code a chunk its own way (those with the writer's choice could
+    /// take range-2d), and a vector stands for its version.
     bool current;
     /// Format 3.0 (chunk modes, spec §6.4): the volume's shape and the forced
     /// mode (-1: the encoder's choice), so that every mode occurs in a vector.
@@ -72,8 +72,11 @@ const Vector kVectors[] = {
     {"ht_v3.3_f32_17x13x9_lattice", {17, 13, 9}, ValueType::F32, false, false, Vector::Noisy, 4, true, 0.75},
     {"ht_v3.3_i16_17x17x17_lattice", {17, 17, 17}, ValueType::I16, false, false, Vector::Noisy, 4, true, 2.0},
     // Format 3.6: range-2d (mode 5) forced on every field chunk with points.
-    {"ht_v3.6_u8_33x20x9_range2d", {33, 20, 9}, ValueType::U8, false, true, Vector::Noisy, 5, true},
-    {"ht_v3.6_f32_17x13x9_range2d", {17, 13, 9}, ValueType::F32, false, true, Vector::Noisy, 5, true},
+    {"ht_v3.6_u8_33x20x9_range2d", {33, 20, 9}, ValueType::U8, false, false, Vector::Noisy, 5, true},
+    {"ht_v3.6_f32_17x13x9_range2d", {17, 13, 9}, ValueType::F32, false, false, Vector::Noisy, 5, true},
+    // Format 3.7: static (mode 6) forced on every field chunk with points.
+    {"ht_v3.7_u8_33x20x9_static", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse, 6, true},
+    {"ht_v3.7_f32_17x13x9_static", {17, 13, 9}, ValueType::F32, false, true, Vector::Noisy, 6, true},
 };
 
 /// Spec §6.4 (mode 4), read from the spec alone: the lattice step of a
@@ -123,12 +126,12 @@ Volume vector_volume(const Vector& v) {
 
 /// Sections per chunk mode (table Flags bits 8-11), HT_FIELD then HT_ERRORS.
 nlohmann::json chunk_modes(const tlod::ContainerReader& r) {
-    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d"};
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static"};
     nlohmann::json j = nlohmann::json::object();
     for (const auto& s : r.sections())
         if (s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors) {
             const uint32_t m = tlod::section_mode(s.flags);
-            auto& slot = j[tlod::section_type_name(s.type)][m < 6 ? names[m] : "unknown"];
+            auto& slot = j[tlod::section_type_name(s.type)][m < 7 ? names[m] : "unknown"];
             slot = slot.is_null() ? 1 : slot.get<int>() + 1;
         }
     return j;
@@ -144,7 +147,7 @@ std::vector<char> slurp(const std::string& p) {
 std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m, const nlohmann::json& modes) {
     std::ostringstream o;
     o.precision(17);
-    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.mode == 5 ? "3.6" : v.max_error > 0 ? "3.3" : v.compact ? "3.2" : "3.0") << "\",\n"
+    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.mode == 6 ? "3.7" : v.mode == 5 ? "3.6" : v.max_error > 0 ? "3.3" : v.compact ? "3.2" : "3.0") << "\",\n"
       << "  \"dims\": [" << m.dims.x << ", " << m.dims.y << ", " << m.dims.z << "],\n"
       << "  \"value_type\": \"" << value_type_name(m.type) << "\",\n"
       << "  \"spacing\": [" << m.spacing[0] << ", " << m.spacing[1] << ", " << m.spacing[2] << "],\n"
@@ -361,10 +364,15 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
                     std::memcpy(metadata.data(), f + off, raw);
             }
             if (le(8, 2) >= 3 && (type == 3 || type == 4)) {
-                const char* names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d"};
+                const char* names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static"};
                 const uint64_t mode = (flags >> 8) & 15;
-                // lattice since 3.3, range-2d since 3.6
-                ASSERT_LT(mode, le(10, 2) >= 6 ? 6u : le(10, 2) >= 3 ? 5u : 4u) << "section " << i;
+                // lattice since 3.3, range-2d since 3.6, static since 3.7
+                ASSERT_LT(mode, le(10, 2) >= 7 ? 7u : le(10, 2) >= 6 ? 6u : le(10, 2) >= 3 ? 5u : 4u) << "section " << i;
+                if (mode == 6) {  // a field mode, stored raw, >= 19 bytes
+                    EXPECT_EQ(type, 3u) << "section " << i;
+                    EXPECT_EQ(flags & 1, 0u) << "section " << i;
+                    EXPECT_GE(stored, 19u) << "section " << i;
+                }
                 if (mode == 5) {  // a field mode, stored raw, >= 5 bytes (the range rules)
                     EXPECT_EQ(type, 3u) << "section " << i;
                     EXPECT_EQ(flags & 1, 0u) << "section " << i;
@@ -456,6 +464,10 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
         if (v.mode == 5) {  // 3.6 vectors: range-2d on every field chunk with points
             EXPECT_EQ(le(10, 2), 6u);
             EXPECT_GT(modes["HT_FIELD"]["range-2d"], 0);
+        }
+        if (v.mode == 6) {  // 3.7 vectors: static on every field chunk with points
+            EXPECT_EQ(le(10, 2), 7u);
+            EXPECT_GT(modes["HT_FIELD"]["static"], 0);
         }
         // Every key of the JSON is in the METADATA section, byte for byte.
         const std::string mtext(metadata.begin(), metadata.end());

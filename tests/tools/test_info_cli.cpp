@@ -117,3 +117,40 @@ TEST(InfoCli, Range2dChunksMakeA36FileAndTableFullKeepsThemOut) {
         EXPECT_EQ(slurp(back), slurp(raw)) << extra;
     }
 }
+
+// Format 3.7: `convert --fast-decode` codes the field for decoding speed (chunk
+// mode 6, static, spec §6.4, §7.6): a 3.7 file whose info names the coder and
+// whose bytes decode to the volume; with `--table full` (for older readers) it
+// is refused, naming the conflict, before anything is written.
+TEST(InfoCli, FastDecodeMakesA37FileOfStaticChunks) {
+    const std::string raw = tmp("fast.raw");
+    ASSERT_EQ(run("sample multiscale '" + raw + "' --size 33 --dtype u16").code, 0);
+    const std::string path = tmp("fast.tlod");
+    const CliRun c = run("convert '" + raw + "' '" + path + "' --dims 33,33,33 --dtype u16 -f --fast-decode");
+    ASSERT_EQ(c.code, 0) << c.err;
+    const CliRun j = run("info --json '" + path + "'");
+    ASSERT_EQ(j.code, 0) << j.err;
+    const auto info = nlohmann::json::parse(j.out);
+    EXPECT_EQ(info["format_version"], "3.7");
+    int statics = 0, ranges = 0;
+    for (const auto& s : info["sections"])
+        if (s.value("type", "") == "HT_FIELD") {
+            statics += s.value("mode", "") == "static";
+            ranges += s.value("mode", "") == "range" || s.value("mode", "") == "range-2d";
+        }
+    EXPECT_GT(statics, 0) << j.out;
+    EXPECT_EQ(ranges, 0) << j.out;
+    EXPECT_TRUE(contains(run("info '" + path + "'").out, "ht-static-rans"));
+    const std::string back = tmp("fast_back.raw");
+    ASSERT_EQ(run("decode '" + path + "' '" + back + "' -f -q").code, 0);
+    EXPECT_EQ(slurp(back), slurp(raw));
+    const CliRun v = run("verify '" + path + "'");
+    EXPECT_EQ(v.code, 0) << v.err;
+
+    const std::string refused = tmp("fast_full.tlod");
+    const CliRun f =
+        run("convert '" + raw + "' '" + refused + "' --dims 33,33,33 --dtype u16 -f --fast-decode --table full");
+    EXPECT_EQ(f.code, 2) << f.err;
+    EXPECT_TRUE(contains(f.err, "compact table")) << f.err;
+    EXPECT_FALSE(std::filesystem::exists(refused));
+}

@@ -65,11 +65,27 @@ void put_gamma(RawBitWriter& w, uint32_t v) {  // v >= 1
     w.put(v, len - 1);
 }
 
-std::array<uint16_t, kSymbols> starts_of(const Frequencies& f) {
-    std::array<uint16_t, kSymbols> st{};
+std::array<uint16_t, kMaxSymbols> starts_of(const Frequencies& f) {
+    std::array<uint16_t, kMaxSymbols> st{};
     uint32_t at = 0;
-    for (int s = 0; s < kSymbols; ++s) st[size_t(s)] = uint16_t(at), at += f[size_t(s)];
+    for (int s = 0; s < kMaxSymbols; ++s) st[size_t(s)] = uint16_t(at), at += f[size_t(s)];
     return st;
+}
+
+/// Bits of the first and last symbol's fields.
+int symbol_bits(int alphabet) { return std::bit_width(unsigned(alphabet - 1)); }
+
+void check_alphabet(int alphabet) {
+    if (alphabet < 2 || alphabet > kMaxSymbols)
+        throw Error(ErrorCode::InvalidArgument, "rans: an alphabet of 2 to 129 symbols");
+}
+
+/// First and last symbol of non-zero frequency (-1, -1: unused).
+std::pair<int, int> span_of(const Frequencies& f) {
+    int lo = -1, hi = -1;
+    for (int s = 0; s < kMaxSymbols; ++s)
+        if (f[size_t(s)] != 0) hi = s, lo = lo < 0 ? s : lo;
+    return {lo, hi};
 }
 
 }  // namespace
@@ -87,69 +103,88 @@ Frequencies normalize(const Counts& counts) {
     if (total == 0) return f;
     int64_t sum = 0;
     int biggest = 0;
-    for (int s = 0; s < kSymbols; ++s) {
+    for (int s = 0; s < kMaxSymbols; ++s) {
         const uint64_t n = c[size_t(s)];
         f[size_t(s)] = n == 0 ? 0 : uint16_t(std::max<uint64_t>(1, (n * kProbTotal + total / 2) / total));
         sum += f[size_t(s)];
         if (f[size_t(s)] > f[size_t(biggest)]) biggest = s;
     }
-    // The most frequent symbol absorbs the rounding: it has at least 2048 / 16
-    // before, and the others' lifts to 1 and roundings move the sum by less.
-    f[size_t(biggest)] = uint16_t(int64_t(f[size_t(biggest)]) + int64_t(kProbTotal) - sum);
+    // The most frequent symbol absorbs the rounding; with many rare symbols
+    // lifted to 1 it may not hold the excess alone, so the excess is taken
+    // from the largest ones in turn (each keeps at least 1).
+    int64_t excess = sum - int64_t(kProbTotal);
+    if (excess < 0) f[size_t(biggest)] = uint16_t(int64_t(f[size_t(biggest)]) - excess), excess = 0;
+    while (excess > 0) {
+        int big = 0;
+        for (int s = 1; s < kMaxSymbols; ++s)
+            if (f[size_t(s)] > f[size_t(big)]) big = s;
+        const int64_t take = std::min<int64_t>(excess, int64_t(f[size_t(big)]) - 1 - int64_t(f[size_t(big)]) / 2);
+        f[size_t(big)] = uint16_t(int64_t(f[size_t(big)]) - std::max<int64_t>(take, 1));
+        excess -= std::max<int64_t>(take, 1);
+    }
     return f;
 }
 
-void write_tables(std::span<const Frequencies> tables, std::vector<std::byte>& out) {
+void write_tables(std::span<const Frequencies> tables, int alphabet, std::vector<std::byte>& out) {
+    check_alphabet(alphabet);
+    const int b = symbol_bits(alphabet);
     RawBitWriter w;
     for (const Frequencies& f : tables) {
-        int last = -1;
-        for (int s = 0; s < kSymbols; ++s)
-            if (f[size_t(s)] != 0) last = s;
-        w.put(last >= 0, 1);
-        if (last < 0) continue;
-        for (int s = 0; s < kSymbols; ++s) w.put(f[size_t(s)] != 0, 1);
-        for (int s = 0; s < last; ++s)
+        const auto [lo, hi] = span_of(f);
+        if (hi >= alphabet) throw Error(ErrorCode::InvalidArgument, "rans: a symbol outside the alphabet");
+        w.put(lo >= 0, 1);
+        if (lo < 0) continue;
+        w.put(uint64_t(lo), b);
+        w.put(uint64_t(hi), b);
+        for (int s = lo + 1; s < hi; ++s) w.put(f[size_t(s)] != 0, 1);
+        for (int s = lo; s < hi; ++s)
             if (f[size_t(s)] != 0) put_gamma(w, f[size_t(s)]);
     }
     const auto bytes = w.finish();
     out.insert(out.end(), bytes.begin(), bytes.end());
 }
 
-std::size_t tables_size(std::span<const Frequencies> tables) {
+std::size_t tables_size(std::span<const Frequencies> tables, int alphabet) {
+    check_alphabet(alphabet);
+    const int b = symbol_bits(alphabet);
     std::size_t bits = 0;
     for (const Frequencies& f : tables) {
-        int last = -1;
-        for (int s = 0; s < kSymbols; ++s)
-            if (f[size_t(s)] != 0) last = s;
+        const auto [lo, hi] = span_of(f);
         bits += 1;
-        if (last < 0) continue;
-        bits += kSymbols;
-        for (int s = 0; s < last; ++s)
+        if (lo < 0) continue;
+        bits += 2 * size_t(b) + size_t(std::max(0, hi - lo - 1));
+        for (int s = lo; s < hi; ++s)
             if (f[size_t(s)] != 0) bits += 2 * size_t(std::bit_width(uint32_t(f[size_t(s)]))) - 1;
     }
     return (bits + 7) / 8;
 }
 
-std::optional<std::size_t> read_tables(std::span<const std::byte> in, std::span<Frequencies> tables) {
+std::optional<std::size_t> read_tables(std::span<const std::byte> in, int alphabet, std::span<Frequencies> tables) {
+    check_alphabet(alphabet);
+    const int b = symbol_bits(alphabet);
     TableBits r(in);
     for (Frequencies& f : tables) {
         f.fill(0);
-        uint32_t used;
+        uint32_t used, lo, hi;
         if (!r.bit(used)) return std::nullopt;
         if (!used) continue;
-        uint32_t present;
-        if (!r.bits(kSymbols, present) || present == 0) return std::nullopt;
-        const int last = std::bit_width(present) - 1;
+        if (!r.bits(b, lo) || !r.bits(b, hi) || lo > hi || hi >= uint32_t(alphabet)) return std::nullopt;
+        f[lo] = 1;  // present (its frequency below)
+        for (uint32_t s = lo + 1; s < hi; ++s) {
+            uint32_t present;
+            if (!r.bit(present)) return std::nullopt;
+            f[s] = uint16_t(present);
+        }
         uint32_t left = kProbTotal;
-        for (int s = 0; s < last; ++s) {
-            if (!(present >> s & 1)) continue;
+        for (uint32_t s = lo; s < hi; ++s) {
+            if (f[s] == 0) continue;
             uint32_t v;
             // Each present symbol but the last leaves at least 1 for it.
             if (!r.gamma(v) || v >= left) return std::nullopt;
-            f[size_t(s)] = uint16_t(v);
+            f[s] = uint16_t(v);
             left -= v;
         }
-        f[size_t(last)] = uint16_t(left);
+        f[hi] = uint16_t(left);
     }
     return r.finish();
 }
@@ -166,18 +201,18 @@ DecodeTables::DecodeTables(std::span<const Frequencies> tables, std::vector<uint
         if (tables[c] == Frequencies{}) continue;
         block_[c] = next++;
         uint32_t at = 0;
-        for (int s = 0; s < kSymbols; ++s) {
+        for (int s = 0; s < kMaxSymbols; ++s) {
             const uint32_t f = tables[c][size_t(s)];
             for (uint32_t k = 0; k < f && at < kProbTotal; ++k) slot[at++] = f | k << 12 | uint32_t(s) << 23;
         }
         // Tables from read_tables or normalize sum to kProbTotal; any other
         // leaves the rest as unused slots.
-        for (; at < kProbTotal; ++at) slot[at] = uint32_t(kSymbols) << 23;
+        for (; at < kProbTotal; ++at) slot[at] = uint32_t(kMaxSymbols) << 23;
         slot += kProbTotal;
     }
     // The unused contexts' block: a stream that reads it is corrupt (the
-    // caller sees kSymbols); the state, 0, stays safe to continue with.
-    std::fill(slot, slot + kProbTotal, uint32_t(kSymbols) << 23);
+    // caller sees kMaxSymbols); the state, 0, stays safe to continue with.
+    std::fill(slot, slot + kProbTotal, uint32_t(kMaxSymbols) << 23);
     for (std::size_t c = 0; c < tables.size(); ++c)
         if (tables[c] == Frequencies{}) block_[c] = next;
     base_ = storage.data();
@@ -187,7 +222,7 @@ std::vector<std::byte> encode(std::span<const Frequencies> tables, std::span<con
                               std::span<const uint8_t> symbols) {
     if (contexts.size() != symbols.size())
         throw Error(ErrorCode::InvalidArgument, "rans encode: one context per symbol");
-    std::vector<std::array<uint16_t, kSymbols>> starts(tables.size());
+    std::vector<std::array<uint16_t, kMaxSymbols>> starts(tables.size());
     for (std::size_t c = 0; c < tables.size(); ++c) starts[c] = starts_of(tables[c]);
     std::vector<uint16_t> words;  // in the reverse of the order they are read
     words.reserve(symbols.size() / 4 + 16);
@@ -195,7 +230,7 @@ std::vector<std::byte> encode(std::span<const Frequencies> tables, std::span<con
     for (std::size_t i = symbols.size(); i-- > 0;) {
         const std::size_t c = contexts[i];
         const int s = symbols[i];
-        if (c >= tables.size() || s >= kSymbols || tables[c][size_t(s)] == 0)
+        if (c >= tables.size() || s >= kMaxSymbols || tables[c][size_t(s)] == 0)
             throw Error(ErrorCode::InvalidArgument, "rans encode: a symbol its context's table does not hold");
         const uint32_t f = tables[c][size_t(s)];
         uint32_t& xi = x[i & 1];

@@ -1,5 +1,5 @@
 #pragma once
-// Static-table rANS: symbols of a 16-letter alphabet coded with fixed
+// Static-table rANS: symbols of an alphabet of up to 129 letters coded with fixed
 // frequency tables, one per context, by a range asymmetric numeral system
 // (J. Duda, "Asymmetric numeral systems: entropy coding combining speed of
 // Huffman coding with compression rate of arithmetic coding", 2013) with a
@@ -30,39 +30,43 @@ namespace tetlod::rans {
 
 inline constexpr int kProbBits = 11;                    // probabilities in 1/2048
 inline constexpr uint32_t kProbTotal = 1u << kProbBits;
-inline constexpr int kSymbols = 16;
+inline constexpr int kMaxSymbols = 129;  // a sign and a bit length up to 64, or 0
 inline constexpr uint32_t kStateLow = 1u << 16;  // states live in [2^16, 2^32)
 
-using Counts = std::array<uint64_t, kSymbols>;
+using Counts = std::array<uint64_t, kMaxSymbols>;
 /// One context's table: symbol frequencies summing to kProbTotal, or all zero
 /// for a context that codes nothing.
-using Frequencies = std::array<uint16_t, kSymbols>;
+using Frequencies = std::array<uint16_t, kMaxSymbols>;
 
 /// Frequencies close to `counts` (deterministic: the same counts give the same
 /// table on every machine): every counted symbol gets at least 1, uncounted
 /// ones 0, the sum is kProbTotal; all zero when every count is.
 Frequencies normalize(const Counts& counts);
 
-/// Appends the tables' coding (see read_tables) to `out`.
-void write_tables(std::span<const Frequencies> tables, std::vector<std::byte>& out);
+/// Appends the coding of `tables` (see read_tables), whose symbols are all
+/// below `alphabet` (2..kMaxSymbols), to `out`.
+void write_tables(std::span<const Frequencies> tables, int alphabet, std::vector<std::byte>& out);
 
-/// Reads `tables.size()` tables written by write_tables from the start of `in`:
-/// per context a used bit; for a used one 16 presence bits, then each present
-/// symbol's frequency but the last as an Elias-gamma code (the last takes what
-/// is left of kProbTotal, at least 1); bits least significant first, zero
-/// padding to a whole byte. Returns the bytes taken, or nothing when the coding
-/// is malformed (truncated, a frequency of 0 or above what is left, a used
-/// context with no symbol, padding that is not zero).
-std::optional<std::size_t> read_tables(std::span<const std::byte> in, std::span<Frequencies> tables);
+/// Reads `tables.size()` tables written by write_tables from the start of `in`,
+/// bits least significant first: per context a used bit; for a used one the
+/// first and the last symbol of non-zero frequency (B bits each, B the bit
+/// width of alphabet - 1; first <= last < alphabet), a presence bit for each
+/// symbol between them, then the frequency of each present symbol but the last
+/// as an Elias-gamma code (the last takes what is left of kProbTotal, at least
+/// 1); zero padding to a whole byte. Returns the bytes taken, or nothing when
+/// the coding is malformed (truncated, a symbol outside the alphabet, a
+/// frequency above what is left, a gamma code of more than 11 zeros, padding
+/// that is not zero).
+std::optional<std::size_t> read_tables(std::span<const std::byte> in, int alphabet, std::span<Frequencies> tables);
 
 /// Bytes write_tables takes for `tables` (for a writer choosing between codings).
-std::size_t tables_size(std::span<const Frequencies> tables);
+std::size_t tables_size(std::span<const Frequencies> tables, int alphabet);
 
 /// The decoder's view of a set of tables: per used context kProbTotal slots,
 /// each packing the symbol of that slot, its frequency and the slot's offset
 /// from the symbol's first slot (freq | offset << 12 | symbol << 23), one
 /// block after the other, then one block for every unused context (symbol
-/// kSymbols, frequency 0). Context c's slots start at base() + block(c) *
+/// kMaxSymbols, frequency 0). Context c's slots start at base() + block(c) *
 /// kProbTotal: a decoding loop copies the block numbers (a byte each) into a
 /// local array, which a store of a decoded byte cannot alias (a table of
 /// pointers, read through the object, was reloaded after every such store).
@@ -115,7 +119,7 @@ std::vector<std::byte> encode(std::span<const Frequencies> tables, std::span<con
 /// from the slots of its context, then makes the other state current, so
 /// that successive calls alternate the states as encode() did; check() after
 /// every PaddedStream::kMaxUnchecked of them at most, and before the end. A context
-/// without a table gives kSymbols (the stream is corrupt). A value type of a
+/// without a table gives kMaxSymbols (the stream is corrupt). A value type of a
 /// few words: a decoding loop keeps a copy in locals (registers).
 class Decoder {
 public:

@@ -23,10 +23,12 @@
 namespace tetlod::ht_detail {
 
 constexpr int kStaticContexts = 64;  // 16 buckets per class (spec §7.6)
-constexpr int kStaticInlineLength = 7;  // bit lengths 1..7 in the symbol
-constexpr int kStaticEscape = rans::kSymbols - 1;  // longer: 6 raw bits of length, 1 of sign
-/// The smallest section (spec §6.4): 64 used bits and one used table (16
-/// presence bits) make 10 bytes, then a 1-byte length and the two states.
+/// The symbols of a type of W bits: 0, then bit lengths 1..W of positive
+/// residuals, then of negative ones.
+constexpr int static_alphabet(int w_bits) { return 2 * w_bits + 1; }
+/// The smallest section (spec §6.4): 64 used bits and one used table (first
+/// and last symbol, 5 bits each at least) make 10 bytes, then a 1-byte length
+/// and the two states.
 constexpr uint64_t kMinStaticBytes = 19;
 
 /// A point's table: its class and the §7.6 bucket of spread + 2 nbr', nbr'
@@ -35,19 +37,19 @@ constexpr uint64_t kMinStaticBytes = 19;
     return 16 * cls + activity_bucket(spread + 2 * nbr);
 }
 
-/// 0 for 0; n (1..7) for a positive residual of bit length n, 7 + n for a
-/// negative one; kStaticEscape for bit lengths of 8 and more. The sign is in
-/// the symbol: the floor of the prediction's mean makes one sign the likelier.
+/// 0 for 0; n for a positive residual of bit length n, W + n for a negative
+/// one (W the type's bits). The sign is in the symbol: the floor of the
+/// prediction's mean makes one sign the likelier; so is the bit length of every
+/// type (an escape to raw length bits cost wide types 15-50 % more bytes).
+template <int W>
 [[gnu::always_inline]] inline int static_symbol(uint64_t mag, bool neg) {
     const int n = rc::bit_length(mag);
-    return n == 0 ? 0 : n <= kStaticInlineLength ? (neg ? kStaticInlineLength + n : n) : kStaticEscape;
+    return n == 0 ? 0 : neg ? W + n : n;
 }
 
-/// A point's raw bits: for an escape, its bit length − 8 (6 bits) and its
-/// sign (1 bit); then the bits of the magnitude below its leading one.
-inline void put_static_raw(rans::RawBitWriter& w, uint64_t mag, bool neg) {
+/// A point's raw bits: those of its magnitude below the leading one.
+inline void put_static_raw(rans::RawBitWriter& w, uint64_t mag) {
     const int n = rc::bit_length(mag);
-    if (n > kStaticInlineLength) w.put(uint64_t(n - kStaticInlineLength - 1), 6), w.put(neg ? 1 : 0, 1);
     if (n > 1) {
         const uint64_t rest = mag & (~uint64_t{0} >> (65 - n));
         if (n - 1 > 48) w.put(rest & 0xFFFFFF, 24), w.put(rest >> 24, n - 1 - 24);
@@ -71,11 +73,11 @@ struct FieldPointStaticRecorder {
         const auto r = typename D::S(typename D::U(uint64_t(D::get(v[idx])) - uint64_t(pr.p)));
         const bool neg = r < 0;
         const uint64_t mag = neg ? uint64_t(0) - uint64_t(int64_t(r)) : uint64_t(r);
-        const int sym = static_symbol(mag, neg);
+        const int sym = static_symbol<D::W>(mag, neg);
         contexts->push_back(uint8_t(ctx));
         symbols->push_back(uint8_t(sym));
         ++(*counts)[size_t(ctx)][size_t(sym)];
-        put_static_raw(*raw, mag, neg);
+        put_static_raw(*raw, mag);
         lat.set(s, mag);
     }
 };
@@ -103,7 +105,7 @@ StaticChunk encode_static_chunk(const Geometry& G, const T* v, const HtChunk& c)
     out.zero_residuals = std::all_of(counts.begin(), counts.end(), [](const rans::Counts& k) {
         return std::all_of(k.begin() + 1, k.end(), [](uint64_t n) { return n == 0; });
     });
-    rans::write_tables(tables, out.bytes);
+    rans::write_tables(tables, static_alphabet(Dom<T>::W), out.bytes);
     const auto stream = rans::encode(tables, contexts, symbols);
     put_varint(out.bytes, stream.size());
     out.bytes.insert(out.bytes.end(), stream.begin(), stream.end());
@@ -114,46 +116,48 @@ StaticChunk encode_static_chunk(const Geometry& G, const T* v, const HtChunk& c)
 
 /// What a mode-6 decoder keeps across the points of a chunk (a value type: a
 /// row's loop keeps a copy in locals). The raw bits are refilled once every
-/// kRefillEvery points: an inline symbol takes at most 6 of them, and a
-/// refill leaves at least 56; an escape refills around its own.
+/// refill_every<W>() points: a point takes at most W - 1 of them, and a refill
+/// leaves at least 56 (64-bit types refill within a point as well).
 struct StaticPointReader {
-    static constexpr int kRefillEvery = 8;
     rans::Decoder dec;
     rans::RawBitReader raw;
-    bool bad = false;  // a symbol of an unused table, or a bit length above W
+    bool bad = false;  // a symbol outside the type's alphabet, or of an unused table
+
+    template <int W>
+    static constexpr int refill_every() { return W - 1 <= 56 ? 56 / (W - 1) : 1; }
+
+    /// Per symbol of a W-bit type (and one more, for every symbol outside
+    /// the alphabet): the magnitude's leading one, and the raw bits below it.
+    template <int W>
+    struct Symbols {
+        std::array<uint64_t, 2 * W + 2> lead{};
+        std::array<uint8_t, 2 * W + 2> bits{};
+        constexpr Symbols() {
+            for (int s = 1; s <= 2 * W; ++s) {
+                const int n = s > W ? s - W : s;
+                lead[size_t(s)] = uint64_t{1} << (n - 1);
+                bits[size_t(s)] = uint8_t(n - 1);
+            }
+        }
+    };
 
     /// The magnitude and sign of the next point, whose table is `slots`.
     template <int W>
     [[gnu::always_inline]] uint64_t next(const uint32_t* slots, bool& neg) {
-        // Per symbol: the magnitude's leading one and how many raw bits follow
-        // it (the escape's, and the unused tables' kSymbols, fixed below).
-        static constexpr uint8_t kLead[rans::kSymbols + 1] = {0, 1, 2, 4, 8, 16, 32, 64, 1, 2, 4, 8, 16, 32, 64, 0, 0};
-        static constexpr uint8_t kBits[rans::kSymbols + 1] = {0, 0, 1, 2, 3, 4, 5, 6, 0, 1, 2, 3, 4, 5, 6, 0, 0};
+        static constexpr Symbols<W> kSym{};
         const int sym = dec.next(slots);
-        neg = sym > kStaticInlineLength;
-        if (sym >= kStaticEscape) [[unlikely]]
-            return escape<W>(sym, neg);
-        return uint64_t(kLead[sym]) | raw.take(kBits[sym]);
-    }
-
-    template <int W>
-    [[gnu::noinline]] uint64_t escape(int sym, bool& neg) {
-        bad = bad || sym > kStaticEscape;
-        raw.refill();
-        int n = kStaticInlineLength + 1 + int(raw.take(6));
-        neg = raw.take(1) != 0;
-        raw.refill();
-        if (n > W) bad = true, n = W;
-        uint64_t mag;
-        if (n - 1 > 48) {
-            const uint64_t lo = raw.take(24);
-            raw.refill();
-            mag = (uint64_t{1} << (n - 1)) | lo | (raw.take(n - 1 - 24) << 24);
-        } else {
-            mag = (uint64_t{1} << (n - 1)) | raw.take(n - 1);
+        bad = bad || sym > 2 * W;
+        const int k = sym > 2 * W ? 2 * W + 1 : sym;
+        neg = k > W;
+        const int bits = kSym.bits[size_t(k)];
+        if constexpr (W - 1 > 56) {
+            if (bits > 48) {  // more than one take holds
+                const uint64_t lo = raw.take(24);
+                raw.refill();
+                return kSym.lead[size_t(k)] | lo | (raw.take(bits - 24) << 24);
+            }
         }
-        raw.refill();
-        return mag;
+        return kSym.lead[size_t(k)] | raw.take(bits);
     }
 };
 
@@ -165,7 +169,7 @@ std::string decode_static_chunk(const Geometry& G, T* v, const HtChunk& c, std::
     using U = typename D::U;
     if (c.points == 0) return in.empty() ? "" : "bytes in an empty chunk";
     std::array<rans::Frequencies, kStaticContexts> tables;
-    const auto taken = rans::read_tables(in, tables);
+    const auto taken = rans::read_tables(in, static_alphabet(D::W), tables);
     if (!taken) return "malformed static tables";
     // The rANS stream's length: a varint of at most 5 bytes in shortest form.
     std::size_t at = *taken;
@@ -229,7 +233,7 @@ std::string decode_static_chunk(const Geometry& G, T* v, const HtChunk& c, std::
                     predict_block<T, Cls>(G, Fr, t, r, P, lv, even, vv, x, n, idx, s, didx, ds, pp, psp, osum, on);
                     local.dec.check();
                     for (int64_t i = 0; i < n; ++i, idx += didx, s += ds) {
-                        if (i % StaticPointReader::kRefillEvery == 0) local.raw.refill();
+                        if (i % StaticPointReader::refill_every<D::W>() == 0) local.raw.refill();
                         const int ctx = static_context(Cls, psp[i], LatticeView::mean_of(osum[i], on[i]));
                         bool neg;
                         const uint64_t mag = local.next<D::W>(slots(ctx), neg);
@@ -244,7 +248,7 @@ std::string decode_static_chunk(const Geometry& G, T* v, const HtChunk& c, std::
         });
     });
     rd.dec.check();
-    if (rd.bad) return "a symbol of an unused table, or a residual longer than the type";
+    if (rd.bad) return "a symbol of an unused table, or outside the type's alphabet";
     if (!rd.dec.ended_exactly()) return "malformed static rANS stream";
     if (!rd.raw.ended_exactly()) return "malformed static raw bits";
     return "";
