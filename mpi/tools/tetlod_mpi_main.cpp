@@ -44,6 +44,7 @@ struct Args {
     int level = 19, brick_log2 = 0, error_bits = 4;  // brick_log2 0: automatic
     std::string memory, axis_order;
     std::string table = "compact";  // convert: section table layout
+    bool fast_decode = false;        // convert: static-table field chunks (format 3.7)
     // extract
     std::string error, error_out, box, format, compress = "zlib";
     int compress_level = 0;
@@ -207,6 +208,7 @@ int run(const Args& a, int rank, int size) {
     o.write.brick_log2 = a.brick_log2;
     o.write.error_bits = a.error_bits;
     o.write.table = a.table == "full" ? tlod::TableLayout::full : tlod::TableLayout::compact;
+    o.write.fast_decode = a.fast_decode;
     o.write.memory_bytes = default_memory_budget();
     if (!a.memory.empty()) {
         std::string why;
@@ -280,6 +282,8 @@ int main_mpi(int argc, char** argv, int rank, int size) {
     convert->add_option("--table", a.table, "Section table layout: compact (format 3.2) or full (a 3.0 file for older readers, no range-2d chunks)")
         ->capture_default_str()
         ->check(CLI::IsMember({"compact", "full"}));
+    convert->add_flag("--fast-decode", a.fast_decode,
+                      "Code the HT's field for decoding speed (static-table chunks, format 3.7): faster to decode, larger");
     convert->add_option("--error-bits", a.error_bits, "Mantissa bits of stored error bounds")
         ->capture_default_str()
         ->check(CLI::Range(0, 7));

@@ -117,7 +117,7 @@ py::dict info_dict(const ContainerInfo& info) {
 py::dict convert(const std::string& input, const std::string& output, bool ht, bool mt, bool pad,
                  std::optional<int> zstd_level, const py::object& max_error,
                  std::optional<std::int64_t> memory_bytes, std::optional<int> brick_log2,
-                 std::optional<int> error_bits, py::kwargs kwargs) {
+                 std::optional<int> error_bits, bool fast_decode, py::kwargs kwargs) {
     const VolumeReadOptions read = read_options(kwargs);
     // Lossy archival (format 3.1, 3.5 with the MT): a number in field units or
     // '1%' of the value range, as the CLI's --max-error; None or 0: lossless.
@@ -137,6 +137,7 @@ py::dict convert(const std::string& input, const std::string& output, bool ht, b
     // None: the library's defaults (automatic bricks, 4 error bits), as the CLI's.
     if (brick_log2) options.brick_log2 = *brick_log2;
     if (error_bits) options.error_bits = *error_bits;
+    options.fast_decode = fast_decode;
     options.source_path = input;
     options.converter = "tetlod (Python)";
     ContainerWriteSummary summary;
@@ -204,6 +205,7 @@ void bind_containers(py::module_& m) {
           py::arg("mt") = false, py::arg("pad") = false, py::arg("zstd_level") = py::none(),
           py::arg("max_error") = py::none(), py::arg("memory_bytes") = py::none(),
           py::arg("brick_log2") = py::none(), py::arg("error_bits") = py::none(),
+          py::arg("fast_decode") = false,
           "Converts a volume file into a .tlod container holding the HT and/or the MT. "
           "max_error: None (lossless), a bound in field units or '1%' of the value range: every "
           "stored sample within it of the original, every error bound stated against the "
@@ -212,7 +214,8 @@ void bind_containers(py::module_& m) {
           "plane from raw, NRRD, MetaImage, HDF5 and OpenVDB files, in that memory whatever the "
           "volume's size. brick_log2: HT bricks of 2^(t+1+N) grid steps at cycle t (None or 0: "
           "automatic, 5 up to 129 samples per axis, else 4), as the CLI's --brick-log2; error_bits: "
-          "mantissa bits of the HT's stored bounds (None: 4), as --error-bits. "
+          "mantissa bits of the HT's stored bounds (None: 4), as --error-bits; fast_decode: code the "
+          "HT's field for decoding speed (format 3.7, larger), as --fast-decode. "
           "Volume keywords as for read_volume. Returns a summary dict (max_error: "
           "the bound stated, 0 when lossless).");
     m.def(

@@ -167,6 +167,22 @@ def test_convert_takes_a_zstd_level_or_none(volume, work):
         tetlod.convert(volume[0], str(work / "level_23.tlod"), zstd_level=23)
 
 
+def test_convert_fast_decode_writes_static_chunks_that_decode_exactly(volume, work):
+    # fast_decode: the field in static-table chunks (format 3.7), the same samples back;
+    # with an MT-only container there is no HT field to code that way: refused. (On the
+    # Marschner-Lobb fixture zstd of the samples wins every chunk: nothing static.)
+    source = str(work / "fast_ms.nrrd")
+    tetlod.write_volume(tetlod.sample_volume("multiscale", (33, 33, 33), "u16"), source)
+    path, default = str(work / "fast_decode.tlod"), str(work / "fast_default.tlod")
+    tetlod.convert(source, path, fast_decode=True)
+    tetlod.convert(source, default)
+    assert tetlod.info(path)["format_version"] == "3.7"
+    assert tetlod.info(default)["format_version"] != "3.7"
+    assert (tetlod.decode(path) == tetlod.decode(default)).all()
+    with pytest.raises(tetlod.Error, match="no HT"):
+        tetlod.convert(volume[0], str(work / "fast_mt.tlod"), ht=False, mt=True, fast_decode=True)
+
+
 def test_convert_takes_the_brick_size_and_error_bits(volume, work):
     # None: the library's automatic bricks (5 for a volume this small) and 4
     # error bits; given, they are what the file says, as the CLI's options.
