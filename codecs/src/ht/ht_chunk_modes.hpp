@@ -104,7 +104,8 @@ struct ChunkModeChoice {
     double max_error = 0;  // the file's stated bound (spec §5.1): > 0 tries the lattice mode
     bool range_2d = true;  // may choose range-2d (format 3.6) for field chunks
     // Field chunks only in the modes that decode fast (constant, zero-residual,
-    // static of format 3.7, samples when smaller than static), whatever their size.
+    // static of format 3.7, samples when smaller than static); chunks above 2^22
+    // points (static's limit) as without it.
     bool fast_decode = false;
 };
 

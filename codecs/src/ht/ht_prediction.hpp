@@ -26,15 +26,7 @@ struct LatticeView {
     /// (x±h), (y±h), (z±h), (x−2h), (y−2h), (z−2h) (integer division; 0 if none).
     [[gnu::always_inline]] uint64_t neighbour_mean(int64_t s) const {
         const uint32_t* q = mag + s;
-        const uint32_t v[9] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]};
-        // sum of (w - 1) over the set slots = sum of w - their count
-        uint64_t sum = 0;
-        uint32_t n = 0;
-        for (uint32_t w : v) {
-            sum += w;
-            n += w != 0;
-        }
-        return mean_of(sum - n, n);
+        return mean_of_set(q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2], q[-2 * px], q[-2 * pxy]);
     }
     /// neighbour_mean(s) without x − 2h, the row's previous point: the context
     /// of chunk mode 6 (spec §7.6, "Static tables"), which a decoder works out
@@ -42,13 +34,15 @@ struct LatticeView {
     /// it equals mean_of(others_in_order(...)) (unset slots hold 0).
     [[gnu::always_inline]] uint64_t neighbour_mean_without_prev(int64_t s) const {
         const uint32_t* q = mag + s;
-        const uint32_t v[8] = {q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2 * px], q[-2 * pxy]};
-        uint64_t sum = 0;
-        uint32_t n = 0;
-        for (uint32_t w : v) {
-            sum += w;
-            n += w != 0;
-        }
+        return mean_of_set(q[-1], q[1], q[-px], q[px], q[-pxy], q[pxy], q[-2 * px], q[-2 * pxy]);
+    }
+    /// The mean magnitude of the set slots among lattice values `w` (sat(mag)
+    /// + 1, 0 unset): the sum of (w - 1) over the set ones is the sum of w less
+    /// their count.
+    template <class... W>
+    [[gnu::always_inline]] static uint64_t mean_of_set(W... w) {
+        const uint64_t sum = (uint64_t(w) + ...);
+        const uint32_t n = (uint32_t(w != 0) + ...);
         return mean_of(sum - n, n);
     }
     /// floor(sum / n), 0 when sum is 0 (n may then be 0). Most neighbourhoods
