@@ -6,8 +6,8 @@
 // the vectors' raw volumes (SOURCE_DATE_EPOCH=0): ht_mt_v3.2_u8_9x6x5_compact from
 // ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
 // ht_v3_i16_17x17x17_samples.raw --max-error 1%. The format 3.3 vectors (lattice chunks) are
-// among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3) and the
-// 3.6 ones (range-2d chunks). Seeds written by an earlier version are kept as they are:
+// among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3), the
+// 3.6 ones (range-2d chunks) and the 3.7 ones (static chunks). Seeds written by an earlier version are kept as they are:
 // after adding seeds, copy only the new files from a scratch directory.
 #include <zlib.h>
 

@@ -221,7 +221,8 @@ const CommandRegistration convert_registration{Command{
         sub.add_option("--meta", a->meta, "User metadata key=value (repeatable)")->group(g);
         sub.add_option("--table", a->table,
                        "Section table layout: compact (format 3.2, smallest) or full (48 bytes a section, "
-                       "and no range-2d chunks of format 3.6: a 3.0/3.1 file that older tetlod readers open)")
+                       "and no range-2d chunks of format 3.6: a 3.0/3.1 file that older tetlod readers open; "
+                       "--fast-decode is then refused)")
             ->capture_default_str()
             ->check(CLI::IsMember({"compact", "full"}))
             ->group(g);

@@ -38,7 +38,7 @@ public:
         for (uint32_t b = 0;; ++zeros) {
             if (!bit(b)) return false;
             if (b) break;
-            if (zeros >= kProbBits) return false;  // no frequency has more than 12 bits
+            if (zeros >= kProbBits - 1) return false;  // no frequency below 2048 has more than 11 bits
         }
         uint32_t rest;
         if (!bits(zeros, rest)) return false;

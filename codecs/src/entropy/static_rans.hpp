@@ -55,8 +55,9 @@ void write_tables(std::span<const Frequencies> tables, int alphabet, std::vector
 /// as an Elias-gamma code (the last takes what is left of kProbTotal, at least
 /// 1); zero padding to a whole byte. Returns the bytes taken, or nothing when
 /// the coding is malformed (truncated, a symbol outside the alphabet, a
-/// frequency above what is left, a gamma code of more than 11 zeros, padding
-/// that is not zero).
+/// frequency above what is left, a gamma code of more than 10 zeros, padding
+/// that is not zero). Every multi-bit field, the gamma codes' low bits
+/// included, is read least significant bit first.
 std::optional<std::size_t> read_tables(std::span<const std::byte> in, int alphabet, std::span<Frequencies> tables);
 
 /// Bytes write_tables takes for `tables` (for a writer choosing between codings).

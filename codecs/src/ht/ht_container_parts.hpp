@@ -75,6 +75,11 @@ private:
 /// The features and the field.max_error key of a container written with `o`
 /// (spec §5.1: LOSSY and the key together).
 inline uint64_t ht_features(tlod::Metadata& md, const HtEncodeOptions& o) {
+    // Every HT writer asks for its features here first: the one place to refuse
+    // a 3.7 chunk mode in a file whose full table is meant for older readers.
+    if ((o.fast_decode || o.chunk_mode == 6) && o.table != tlod::TableLayout::compact)
+        throw Error(ErrorCode::InvalidArgument,
+                    "static chunks (format 3.7) need the compact table: the full one is for readers older than 3.2");
     if (!(o.max_error > 0)) return tlod::kFeatureHt;
     if (!std::isfinite(o.max_error)) throw Error(ErrorCode::InvalidArgument, "lossy max error must be finite");
     md.format_keys[tlod::kKeyFieldMaxError] = format_max_error(o.max_error);

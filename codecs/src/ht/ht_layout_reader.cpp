@@ -32,7 +32,7 @@ std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::Se
     if (mode == kModeConstant && s.raw_size != w)
         return bad("constant chunk of " + std::to_string(s.raw_size) + " bytes, expected " + std::to_string(w));
     if (mode == kModeZeroResidual && s.raw_size != 0) return bad("zero-residual chunk with stored bytes");
-    // Tables of at least one used context (11 bytes), a length, two states.
+    // Tables of at least one used context (10 bytes), a length, two states.
     if (mode == kModeStatic && s.raw_size < kMinStaticBytes)
         return bad("static chunk of " + std::to_string(s.raw_size) + " bytes (at least " +
                    std::to_string(kMinStaticBytes) + ")");

@@ -34,7 +34,8 @@ inline constexpr uint16_t kVersion3_0_Minor = 0;
 inline constexpr uint16_t kVersion3_1_Minor = 1;
 /// 3.2: the compact section table (required feature bit 3, spec §4.4), the
 /// default of every writer. Files written with the full table stay 3.0/3.1
-/// unless they use a later feature (chunk modes 4 and 5, LOSSY_MT).
+/// unless they use a later feature (chunk modes 4 and 5, LOSSY_MT; a full
+/// table with chunk mode 6 is refused by the writers).
 inline constexpr uint16_t kVersion3_2_Minor = 2;
 /// 3.3: HT chunk mode 4, lattice (spec §6.4), in lossy files. Written only by
 /// files with such a chunk: a 3.2 reader refuses it (unknown chunk mode).
