@@ -7,7 +7,7 @@
 // ht_mt_v2.1_u8_9x6x5.raw --model ht,mt; ht_v3.2_i16_17x17x17_lossy_compact from
 // ht_v3_i16_17x17x17_samples.raw --max-error 1%. The format 3.3 vectors (lattice chunks) are
 // among the spec's test vectors copied here, as are the 3.4 ones (MT_Coding 3), the
-// 3.6 ones (range-2d chunks) and the 3.7 ones (static chunks). Seeds written by an earlier version are kept as they are:
+// 3.6 ones (range-2d chunks), the 3.7 ones (static chunks) and the 3.8 ones (range-exp error chunks). Seeds written by an earlier version are kept as they are:
 // after adding seeds, copy only the new files from a scratch directory.
 #include <zlib.h>
 
@@ -142,6 +142,9 @@ int main(int argc, char** argv) {
     // Format 3.7: static (mode 6) forced on the field chunks.
     put(root / "ht_sections/v3.7_u8_9x9x5_static", ht_parts(sample({9, 9, 5}, ValueType::U8, 4), 1, false, 6));
     put(root / "ht_sections/v3.7_f64_9x9x9_b2_static", ht_parts(sample({9, 9, 9}, ValueType::F64, 5), 2, false, 6));
+    // Format 3.8: range-exp (mode 7) forced on the error chunks.
+    put(root / "ht_sections/v3.8_u8_9x9x5_rangeexp", ht_parts(sample({9, 9, 5}, ValueType::U8, 4), 1, false, 7));
+    put(root / "ht_sections/v3.8_f32_9x9x9_b2_rangeexp", ht_parts(sample({9, 9, 9}, ValueType::F32, 5), 2, false, 7));
     // MT coding 3 (format 3.4): stored bytes (mode 0) and header + raw payload (mode 1),
     // with and without the field. (The coding-1 seeds, *_coding1_*, were written by the
     // 2.1 writer and the coding-2 ones, *_coding2_*, by the 3.0-3.3 writers; both are kept.)

@@ -2,6 +2,7 @@
 // container.hpp, SectionCoderInfo). Reads nothing: the section table and the
 // HT_HEADER already say it all.
 #include <algorithm>
+#include <iterator>
 
 #include "tetlod/container.hpp"
 
@@ -26,6 +27,8 @@ std::string describe(const std::string& coder, uint32_t type) {
     if (coder == "ht-lattice") return "multiples of the lossy step: their indices range coded (§6.4)";
     if (coder == "ht-static-rans")
         return "neighbour prediction, one symbol a point from the chunk's static tables, rANS (§6.4, §7.6)";
+    if (coder == "ht-range-exp")
+        return "error codes against the lattice bound, adaptive range coder, contexts from the bound's exponent (§6.4, §8.4)";
     if (coder == "ht-range-2d")
         return "neighbour prediction, adaptive range coder, spread and neighbour contexts apart (§6.4, §7.6)";
     if (coder == "ht-range-v2")
@@ -54,6 +57,7 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
                     case 4: return "ht-lattice";
                     case 5: return "ht-range-2d";
                     case 6: return "ht-static-rans";
+                    case 7: return "ht-range-exp";
                     default: return "unknown";
                 }
             }
@@ -73,9 +77,9 @@ std::string section_coder(const tlod::SectionInfo& s, int ht_residual_coding) {
 std::string section_mode_name(const tlod::SectionInfo& s, int ht_residual_coding) {
     if (ht_residual_coding != 3 || (s.type != tlod::kSectionHtField && s.type != tlod::kSectionHtErrors)) return "";
     static const char* const names[] = {"range",   "constant", "samples", "zero-residual",
-                                        "lattice", "range-2d", "static"};
+                                        "lattice", "range-2d", "static",  "range-exp"};
     const uint32_t m = tlod::section_mode(s.flags);
-    return m < 7 ? names[m] : "unknown";
+    return m < std::size(names) ? names[m] : "unknown";
 }
 
 std::vector<SectionCoderInfo> section_coders(const std::vector<tlod::SectionInfo>& sections,

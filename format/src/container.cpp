@@ -444,7 +444,7 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     // with the full table and nothing newer stay 3.0 (3.1 when lossy), byte for byte.
     // 3.3 when a section uses a chunk mode of 3.3 (spec §4.1, §6.4).
     // 3.6 when one uses a chunk mode of 3.6 (§7.6), whatever else the file has;
-    // 3.7 when one uses a chunk mode of 3.7.
+    // 3.7 when one uses a chunk mode of 3.7, 3.8 one of 3.8.
     const bool modes_3_3 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
         return section_mode(s.flags) >= kFirstChunkModeOf3_3;
     });
@@ -454,7 +454,11 @@ std::vector<std::byte> ContainerWriter::head_bytes() const {
     const bool modes_3_7 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
         return section_mode(s.flags) >= kFirstChunkModeOf3_7;
     });
-    const uint16_t minor = modes_3_7                                ? kVersion3_7_Minor
+    const bool modes_3_8 = std::any_of(sections_.begin(), sections_.end(), [](const SectionInfo& s) {
+        return section_mode(s.flags) >= kFirstChunkModeOf3_8;
+    });
+    const uint16_t minor = modes_3_8                                ? kVersion3_8_Minor
+                           : modes_3_7                              ? kVersion3_7_Minor
                            : modes_3_6                              ? kVersion3_6_Minor
                            : (required & kFeatureLossyMt)           ? kVersion3_5_Minor
                            : modes_3_3                              ? kVersion3_3_Minor

@@ -11,8 +11,8 @@
 namespace tetlod::tlod {
 
 // The spec version this library implements (spec/tlod-format.md §3): its newest
-// writer feature is chunk mode 6, static (3.7).
-const char* format_version_string() { return "tlod-format 3.7"; }
+// writer feature is chunk mode 7, range-exp (3.8).
+const char* format_version_string() { return "tlod-format 3.8"; }
 
 uint64_t checksum64(std::span<const std::byte> bytes) {
     return XXH64(bytes.data(), bytes.size(), 0);

@@ -111,6 +111,20 @@ py::dict info_dict(const ContainerInfo& info) {
     }
     d["models"] = models;
     d["sections"] = info.sections.size();
+    // Where the bytes go, as `tetlod info`: one row per section type and coder.
+    py::list coders;
+    for (const SectionCoderInfo& c : info.coders) {
+        py::dict row;
+        row["type"] = c.section;
+        row["coder"] = c.coder;
+        row["mode"] = c.mode;
+        row["count"] = c.count;
+        row["empty"] = c.empty;
+        row["stored_bytes"] = c.stored_bytes;
+        row["raw_bytes"] = c.raw_bytes;
+        coders.append(row);
+    }
+    d["coders"] = coders;
     return d;
 }
 

@@ -176,8 +176,15 @@ def test_convert_fast_decode_writes_static_chunks_that_decode_exactly(volume, wo
     path, default = str(work / "fast_decode.tlod"), str(work / "fast_default.tlod")
     tetlod.convert(source, path, fast_decode=True)
     tetlod.convert(source, default)
-    assert tetlod.info(path)["format_version"] == "3.7"
-    assert tetlod.info(default)["format_version"] != "3.7"
+    # Both 3.8 (range-exp error chunks, format 3.8); only the fast one has static field chunks.
+    assert tetlod.info(path)["format_version"] == "3.8"
+    assert tetlod.info(default)["format_version"] == "3.8"
+    def coders(p):
+        return {c["coder"] for c in tetlod.info(p)["coders"] if c["type"] == "HT_FIELD"}
+    assert "ht-static-rans" in coders(path)
+    assert "ht-static-rans" not in coders(default)
+    errors = {c["coder"] for c in tetlod.info(default)["coders"] if c["type"] == "HT_ERRORS"}
+    assert "ht-range-exp" in errors
     assert (tetlod.decode(path) == tetlod.decode(default)).all()
     with pytest.raises(tetlod.Error, match="no HT"):
         tetlod.convert(volume[0], str(work / "fast_mt.tlod"), ht=False, mt=True, fast_decode=True)
@@ -226,9 +233,12 @@ def test_convert_lossy_with_both_models(volume, work):
     path = str(work / "lossy_both.tlod")
     summary = tetlod.convert(volume[0], path, mt=True, max_error="2%")
     assert summary["max_error"] == 5.0  # 2% of 0..255, an integer field states floor(5.1)
-    # 3.5 (LOSSY_MT), or 3.6, which includes it, when a field chunk is range-2d
-    # (tetlod.info gives no per-section modes; `tetlod info --json` does)
-    assert tetlod.info(path)["format_version"] in ("3.5", "3.6")
+    # 3.5 (LOSSY_MT), or 3.6, which includes it, when a field chunk is range-2d,
+    # or 3.8 when an error chunk is range-exp (info's coders say which)
+    info = tetlod.info(path)
+    coders = {c["coder"] for c in info["coders"]}
+    expected = "3.8" if "ht-range-exp" in coders else "3.6" if "ht-range-2d" in coders else "3.5"
+    assert info["format_version"] == expected
     for model in ("ht", "mt"):
         assert tetlod.open(path, model=model).field_max_error == 5.0
         mesh = tetlod.extract(path, model=model, error="5%")

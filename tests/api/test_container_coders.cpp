@@ -155,9 +155,9 @@ TEST(ContainerCoders, UnknownSectionsHaveTheirOwnRow) {
 
 // ContainerWriteOptions::zstd_level is the level of every zstd frame, the HT
 // chunks' fallback frames (samples mode) included: before, they stayed at 19
-// whatever the level. Noisy samples make the fallback win on some chunks.
+// whatever the level. Sparse balls make the fallback win on some field chunks.
 TEST(ContainerCoders, ZstdLevelReachesTheChunkFrames) {
-    const Volume v = make_sample_volume("noisy", Dims{65, 65, 65});
+    const Volume v = make_sample_volume("sparse", Dims{65, 65, 65});
     uint64_t samples_bytes[2] = {0, 0};
     const int levels[2] = {1, 19};
     for (int i = 0; i < 2; ++i) {

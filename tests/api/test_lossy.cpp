@@ -37,6 +37,13 @@ bool uses_range2d(const ContainerInfo& info) {
     });
 }
 
+/// Whether an error chunk uses the range-exp mode (format 3.8, spec §6.4, §8.4).
+bool uses_range_exp(const ContainerInfo& info) {
+    return std::any_of(info.sections.begin(), info.sections.end(), [](const tlod::SectionInfo& s) {
+        return s.type == tlod::kSectionHtErrors && tlod::section_mode(s.flags) == 7;
+    });
+}
+
 std::vector<char> file_bytes(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -111,8 +118,9 @@ TEST(Lossy, EveryTypeRoundTripsWithinE) {
                 EXPECT_EQ(info.header.version_major, 3);
                 // The compact table (3.2), lossy or not; 3.3 when a lossy field uses the
                 // lattice chunk mode (spec §6.4), which a lossless file never does; 3.6
-                // when a field chunk uses the range-2d mode, in either.
-                EXPECT_EQ(info.header.version_minor, uses_range2d(info)                                ? 6
+                // when a field chunk uses the range-2d mode, in either; 3.8 with range-exp.
+                EXPECT_EQ(info.header.version_minor, uses_range_exp(info)                              ? 8
+                                                     : uses_range2d(info)                              ? 6
                                                      : info.max_error > 0 && info.header.version_minor == 3 ? 3
                                                                                                            : 2);
                 EXPECT_EQ((info.header.required_features & tlod::kFeatureLossy) != 0, info.max_error > 0);
@@ -193,7 +201,7 @@ TEST(Lossy, ZeroIsLosslessByteForByte) {
     EXPECT_EQ(file_bytes(a), file_bytes(b));
     const ContainerInfo info = inspect_container(a).take();
     EXPECT_EQ(info.max_error, 0);
-    EXPECT_EQ(info.header.version_minor, uses_range2d(info) ? 6 : 2);  // the compact table
+    EXPECT_EQ(info.header.version_minor, uses_range_exp(info) ? 8 : uses_range2d(info) ? 6 : 2);  // the compact table
     EXPECT_FALSE(info.header.required_features & tlod::kFeatureLossy);
     // With the full table: the 3.0 file, as before format 3.1 and 3.2.
     ContainerWriteOptions full = lossy(0);
@@ -202,6 +210,7 @@ TEST(Lossy, ZeroIsLosslessByteForByte) {
     write_container(Volume(v), c, full);
     const ContainerInfo full_info = inspect_container(c).take();
     EXPECT_FALSE(uses_range2d(full_info));  // the full table is for older readers: no 3.6 chunk
+    EXPECT_FALSE(uses_range_exp(full_info));  // nor a 3.8 one
     EXPECT_EQ(full_info.header.version_minor, 0);
     const Volume d = decode_container(a).take();
     EXPECT_TRUE(std::equal(d.data.begin(), d.data.end(), v.data.begin(), v.data.end()));
@@ -344,7 +353,7 @@ TEST(Lossy, MtBesideTheHtHonoursTheBoundAgainstTheOriginal) {
         ASSERT_GT(info.max_error, 0);  // the case under test
         EXPECT_EQ(s.max_error, info.max_error);
         EXPECT_GT(s.mt_updates, 0u);
-        EXPECT_EQ(info.header.version_minor, uses_range2d(info) ? 6 : 5);  // LOSSY_MT; 3.6 includes it
+        EXPECT_EQ(info.header.version_minor, uses_range_exp(info) ? 8 : uses_range2d(info) ? 6 : 5);  // LOSSY_MT; 3.6 includes it
         EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossy);
         EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossyMt);
         ASSERT_TRUE(info.mt);

@@ -102,11 +102,15 @@ TEST(VerifyMt, DeepPassesOnLossyContainers) {
             write_container(Volume(v), path, o);
             const ContainerInfo info = inspect_container(path).take();
             ASSERT_GT(info.max_error, 0);  // the case under test: format 3.5, LOSSY_MT
-            // (3.6, which includes it, when a field chunk is range-2d)
+            // (3.6, which includes it, when a field chunk is range-2d; 3.8 when an
+            // error chunk is range-exp)
             const bool range2d = std::any_of(info.sections.begin(), info.sections.end(), [](const tlod::SectionInfo& s) {
                 return s.type == tlod::kSectionHtField && tlod::section_mode(s.flags) == 5;
             });
-            EXPECT_EQ(info.header.version_minor, range2d ? 6 : 5);
+            const bool range_exp = std::any_of(info.sections.begin(), info.sections.end(), [](const tlod::SectionInfo& s) {
+                return s.type == tlod::kSectionHtErrors && tlod::section_mode(s.flags) == 7;
+            });
+            EXPECT_EQ(info.header.version_minor, range_exp ? 8 : range2d ? 6 : 5);
             EXPECT_TRUE(info.header.required_features & tlod::kFeatureLossyMt);
             expect_deep_ok(path);
             EXPECT_EQ(verify_container(path, true).max_error, info.max_error);

@@ -74,7 +74,7 @@ class ChunkModes : public ::testing::TestWithParam<ValueType> {};
 
 TEST_P(ChunkModes, EveryModeBitExact) {
     for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
-        for (int mode : {-1, 0, 1, 2, 3, 5, 6}) {
+        for (int mode : {-1, 0, 1, 2, 3, 5, 6, 7}) {
             const Volume v = make_shaped({11, 9, 7}, GetParam(), shape);
             const HtModel m = HtModel::build(v);
             const auto bytes = encode(m, v, mode, 1);
@@ -97,7 +97,7 @@ TEST_P(ChunkModes, EveryModeBitExact) {
             if (mode == 2) EXPECT_GT(em[2], 0);
             if (mode == 1 && shape == Shape::Constant) EXPECT_GT(fm[1] + em[1], 0);
             if (mode == 3 && shape == Shape::Linear) EXPECT_GT(fm[3], 0);
-            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + fm[5] + fm[6] + em[1] + em[2], 0);
+            if (mode == 0) EXPECT_EQ(fm[1] + fm[2] + fm[3] + fm[5] + fm[6] + em[1] + em[2] + em[7], 0);
             // Range-2d (format 3.6): every field chunk with points, never an error chunk.
             if (mode == 5) EXPECT_EQ(fm[0] + fm[1] + fm[2] + fm[3], 0);
             if (mode == 5) EXPECT_GT(fm[5], 0);
@@ -107,7 +107,13 @@ TEST_P(ChunkModes, EveryModeBitExact) {
             if (mode == 6) EXPECT_GT(fm[6], 0);
             if (mode != 6) EXPECT_EQ(fm[6], 0);
             EXPECT_EQ(em[6], 0);
-            EXPECT_EQ(r->header().version_minor, fm[6] > 0 ? 7 : fm[5] > 0 ? 6 : 2) << "mode " << mode;
+            // Range-exp (format 3.8): every error chunk with diamonds, never a field chunk;
+            // the writer's choice on the larger error chunks (above 4096 diamonds: none here).
+            if (mode == 7) EXPECT_EQ(em[0] + em[1] + em[2], 0);
+            if (mode == 7) EXPECT_GT(em[7], 0);
+            if (mode != 7 && mode != -1) EXPECT_EQ(em[7], 0);
+            EXPECT_EQ(fm[7], 0);
+            EXPECT_EQ(r->header().version_minor, em[7] > 0 ? 8 : fm[6] > 0 ? 7 : fm[5] > 0 ? 6 : 2) << "mode " << mode;
             // (Error chunks at the far faces of B mix 0 with +inf bounds: range coded.)
             if (mode == -1 && shape == Shape::Constant) EXPECT_EQ(fm[0], 0);
         }
@@ -347,10 +353,10 @@ TEST(ChunkModesHostile, StaticRefusedWithSpecificErrors) {
         ss[es].info.flags &= ~kSectionZstd;
         expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 6 for error codes");
     }
-    {  // mode 7 is not defined
+    {  // mode 8 is not defined
         auto ss = good;
-        set_mode(ss[fs], 7);
-        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 7");
+        set_mode(ss[fs], 8);
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 8");
     }
     {  // flagged ZSTD
         auto ss = good;
@@ -413,6 +419,120 @@ TEST(ChunkModesHostile, StaticRefusedWithSpecificErrors) {
     }
 }
 
+TEST(ChunkModesHostile, RangeExpRefusedWithSpecificErrors) {
+    const Volume v = make_shaped({11, 9, 7}, ValueType::F32, Shape::Noisy);
+    const HtModel m = HtModel::build(v);
+    const auto good = sections_of(encode(m, v, 7));
+    const std::size_t fs = find_mode(good, kSectionHtField, 0);
+    std::size_t big = find_mode(good, kSectionHtErrors, 7);
+    for (std::size_t i = 0; i < good.size(); ++i)
+        if (good[i].info.type == kSectionHtErrors && good[i].info.raw_size > good[big].info.raw_size) big = i;
+    ASSERT_EQ(section_mode(good[big].info.flags), 7u);
+    ASSERT_GT(good[big].info.raw_size, 20u);
+    ASSERT_EQ(open_failure(rebuild(good)).code, ErrorCode::Ok) << open_failure(rebuild(good)).message;
+    auto decoded_errors = [&](const std::vector<Section>& ss) {
+        auto r = ContainerReader::from_memory(rebuild(ss));
+        auto d = decode_ht(*r);
+        return d ? std::vector<float>(d->errors.begin(), d->errors.end()) : std::vector<float>{};
+    };
+    const std::vector<float> errors = decoded_errors(good);
+    {  // an error mode: refused on a field chunk
+        auto ss = good;
+        set_mode(ss[fs], 7);
+        expect_failure(ss, ErrorCode::UnsupportedFeature, "unknown chunk mode 7 for field values");
+    }
+    {  // flagged ZSTD
+        auto ss = good;
+        ss[big].info.flags |= kSectionZstd;
+        ss[big].bytes = zstd_compress(ss[big].bytes, 1);
+        expect_failure(ss, ErrorCode::CorruptData, "must not be zstd");
+    }
+    {  // the base exponent alone: too short for a range stream, from the table
+        auto ss = good;
+        ss[big].bytes.resize(1);
+        ss[big].info.raw_size = 1;
+        expect_failure(ss, ErrorCode::CorruptData, "impossible");
+    }
+    {  // truncated by one byte, or one too many: the stream does not end at its last byte
+        for (int more : {-1, 1}) {
+            auto ss = good;
+            if (more < 0) ss[big].bytes.pop_back();
+            else ss[big].bytes.push_back(std::byte{0});
+            ss[big].info.raw_size = ss[big].bytes.size();
+            expect_failure(ss, ErrorCode::CorruptData, "malformed stream");
+        }
+    }
+    {  // another base exponent: other contexts, a clean error or other bounds
+        auto ss = good;
+        ss[big].bytes[0] = std::byte(std::to_integer<int>(ss[big].bytes[0]) == 255 ? 0 : 255);
+        const Failure f = open_failure(rebuild(ss));
+        if (f.code == ErrorCode::Ok) EXPECT_NE(decoded_errors(ss), errors);
+        else EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
+    }
+    {  // range mode's decoder reading a range-exp stream (its first byte is E0, not 0)
+        auto ss = good;
+        set_mode(ss[big], 0);
+        const Failure f = open_failure(rebuild(ss));
+        if (f.code == ErrorCode::Ok) EXPECT_NE(decoded_errors(ss), errors);
+        else EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
+    }
+    {  // and the other way: range-exp's decoder on a range stream
+        const auto range = sections_of(encode(m, v, 0));
+        ASSERT_EQ(range.size(), good.size());
+        auto ss = range;
+        set_mode(ss[big], 7);
+        const Failure f = open_failure(rebuild(ss));
+        if (f.code == ErrorCode::Ok) EXPECT_NE(decoded_errors(ss), errors);
+        else EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
+    }
+    // Random streams and flipped bits: a clean error or bounds, never a crash
+    // (run under ASan / UBSan in the sanitizer build).
+    std::mt19937 rng(17);
+    for (int trial = 0; trial < 300; ++trial) {
+        auto ss = good;
+        auto& b = ss[big].bytes;
+        if (trial % 3 == 0) {
+            for (auto& x : b) x = std::byte(rng() & 0xFF);
+        } else {
+            b[rng() % b.size()] ^= std::byte(1u << (rng() % 8));
+        }
+        const Failure f = open_failure(rebuild(ss));
+        EXPECT_TRUE(f.code == ErrorCode::Ok || f.code == ErrorCode::CorruptData) << f.message;
+    }
+}
+
+TEST(ChunkModesChoice, RangeExpShrinksTheErrorsOfEveryType) {
+    // The writer's choice against range alone for the error chunks (range_exp
+    // off), on noisy volumes of every width: the same bounds back, fewer bytes.
+    for (ValueType t : {ValueType::U8, ValueType::I16, ValueType::U32, ValueType::F32, ValueType::F64}) {
+        const Volume v = make_shaped({33, 29, 25}, t, Shape::Noisy);
+        const HtModel m = HtModel::build(v);
+        auto errors_bytes = [&](bool range_exp, std::vector<float>& errors) {
+            HtEncodeOptions eo;
+            eo.brick_log2 = 2;
+            eo.range_exp = range_exp;
+            ContainerWriter w;
+            encode_ht(m, metadata_for_volume(v), w, eo);
+            const auto bytes = w.finish();
+            auto r = ContainerReader::from_memory(bytes);
+            uint64_t n = 0;
+            for (const auto& s : r->sections())
+                if (s.type == kSectionHtErrors) {
+                    n += s.stored_size;
+                    if (!range_exp) EXPECT_NE(section_mode(s.flags), 7u);
+                }
+            auto d = decode_ht(*r);
+            EXPECT_TRUE(d.ok());
+            if (d) errors.assign(d->errors.begin(), d->errors.end());
+            return n;
+        };
+        std::vector<float> with, without;
+        const uint64_t exp = errors_bytes(true, with), range = errors_bytes(false, without);
+        EXPECT_LT(exp, range) << value_type_name(t);
+        EXPECT_EQ(with, without) << value_type_name(t);
+    }
+}
+
 TEST(ChunkModesChoice, FastDecodeUsesOnlyFastModesAndRoundTrips) {
     for (ValueType t : {ValueType::U8, ValueType::I16, ValueType::U32, ValueType::F32, ValueType::F64}) {
         for (Shape shape : {Shape::Noisy, Shape::Constant, Shape::Sparse, Shape::Linear}) {
@@ -428,7 +548,8 @@ TEST(ChunkModesChoice, FastDecodeUsesOnlyFastModesAndRoundTrips) {
             EXPECT_EQ(fm[0] + fm[4] + fm[5], 0) << value_type_name(t) << " shape " << int(shape);
             auto r = ContainerReader::from_memory(bytes);
             ASSERT_TRUE(r.ok());
-            EXPECT_EQ(r->header().version_minor, fm[6] > 0 ? 7 : 2);
+            const auto em = mode_counts(bytes, kSectionHtErrors);
+            EXPECT_EQ(r->header().version_minor, em[7] > 0 ? 8 : fm[6] > 0 ? 7 : 2);
             auto dec = decode_ht(*r);
             ASSERT_TRUE(dec.ok()) << dec.failure().message;
             ASSERT_EQ(dec->field.data, v.data) << value_type_name(t) << " shape " << int(shape);

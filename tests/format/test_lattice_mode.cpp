@@ -45,6 +45,14 @@ std::vector<std::byte> encode(const Volume& v, double stated_e, int mode, int th
     return w.finish();
 }
 
+/// Error sections in range-exp (format 3.8): the version says 3.8 with any.
+int range_exp_sections_in(std::span<const std::byte> f) {
+    auto r = ContainerReader::from_memory(f);
+    int n = 0;
+    for (const auto& s : r->sections()) n += s.type == kSectionHtErrors && section_mode(s.flags) == 7;
+    return n;
+}
+
 int field_sections_in(std::span<const std::byte> f, uint32_t mode) {
     auto r = ContainerReader::from_memory(f);
     int n = 0;
@@ -91,8 +99,11 @@ TEST_P(LatticeMode, ForcedAndChosenBitExact) {
             const int lattice = field_sections_in(bytes, kLattice);
             if (mode == int(kLattice)) EXPECT_GT(lattice, 0);
             // The version says 3.3 exactly when a section uses the mode (3.6, which
-            // includes it, when a field chunk is range-2d).
-            EXPECT_EQ(r->header().version_minor, field_sections_in(bytes, 5) > 0 ? 6 : lattice > 0 ? 3 : 2);
+            // includes it, when a field chunk is range-2d; 3.8 with a range-exp error chunk).
+            EXPECT_EQ(r->header().version_minor, range_exp_sections_in(bytes) > 0    ? 8
+                                                 : field_sections_in(bytes, 5) > 0 ? 6
+                                                 : lattice > 0                     ? 3
+                                                                                   : 2);
             if (lattice > 0) {  // every value of the field is on the spec's lattice here
                 const double s = is_float(t) ? 2 * stated : 2 * stated + 1;
                 dispatch_value_type(t, [&](auto tv) {
@@ -123,7 +134,8 @@ TEST(LatticeModeChoice, NeverInALosslessFile) {
     for (int mode : {-1, int(kLattice)}) {
         const auto bytes = encode(v, 0, mode);
         EXPECT_EQ(field_sections_in(bytes, kLattice), 0);
-        EXPECT_EQ(ContainerReader::from_memory(bytes)->header().version_minor, field_sections_in(bytes, 5) > 0 ? 6 : 2);
+        EXPECT_EQ(ContainerReader::from_memory(bytes)->header().version_minor,
+                  range_exp_sections_in(bytes) > 0 ? 8 : field_sections_in(bytes, 5) > 0 ? 6 : 2);
     }
 }
 
@@ -274,10 +286,10 @@ TEST(LatticeModeHostile, RefusedWithSpecificErrors) {
         const Failure got = decode_failure(f);
         EXPECT_EQ(got.code, ErrorCode::CorruptData) << got.message;
     }
-    {  // an unknown mode above the last one (static, 6, since 3.7)
+    {  // an unknown mode above the last one (range-exp, 7, since 3.8)
         File f = good;
-        set_mode(f.sections[ls], 7);
-        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 7");
+        set_mode(f.sections[ls], 8);
+        expect(f, ErrorCode::UnsupportedFeature, "unknown chunk mode 8");
     }
     // Random streams and flipped bytes: a clean error or a field, never a crash
     // (run under ASan / UBSan in the sanitizer build).

@@ -36,7 +36,7 @@ struct Vector {
     /// Vectors of an older format version are kept, never regenerated: readers
     /// must go on decoding them. (2.1 changed nothing for HT-only files: the 2.0
     /// vectors stand; the 2.1 MT vectors are in test_mt_container.cpp.) Since
-    /// 3.6 only the newest version's vectors are regenerated (3.7 now): a later
+    /// 3.6 only the newest version's vectors are regenerated (3.8 now): a later
     /// writer may code a chunk its own way (those with the writer's choice could
     /// take range-2d), and a vector stands for its version.
     bool current;
@@ -75,8 +75,11 @@ const Vector kVectors[] = {
     {"ht_v3.6_u8_33x20x9_range2d", {33, 20, 9}, ValueType::U8, false, false, Vector::Noisy, 5, true},
     {"ht_v3.6_f32_17x13x9_range2d", {17, 13, 9}, ValueType::F32, false, false, Vector::Noisy, 5, true},
     // Format 3.7: static (mode 6) forced on every field chunk with points.
-    {"ht_v3.7_u8_33x20x9_static", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse, 6, true},
-    {"ht_v3.7_f32_17x13x9_static", {17, 13, 9}, ValueType::F32, false, true, Vector::Noisy, 6, true},
+    {"ht_v3.7_u8_33x20x9_static", {33, 20, 9}, ValueType::U8, false, false, Vector::Sparse, 6, true},
+    {"ht_v3.7_f32_17x13x9_static", {17, 13, 9}, ValueType::F32, false, false, Vector::Noisy, 6, true},
+    // Format 3.8: range-exp (mode 7) forced on every error chunk with diamonds.
+    {"ht_v3.8_u8_33x20x9_rangeexp", {33, 20, 9}, ValueType::U8, false, true, Vector::Sparse, 7, true},
+    {"ht_v3.8_f32_17x13x9_rangeexp", {17, 13, 9}, ValueType::F32, false, true, Vector::Noisy, 7, true},
 };
 
 /// Spec §6.4 (mode 4), read from the spec alone: the lattice step of a
@@ -126,12 +129,12 @@ Volume vector_volume(const Vector& v) {
 
 /// Sections per chunk mode (table Flags bits 8-11), HT_FIELD then HT_ERRORS.
 nlohmann::json chunk_modes(const tlod::ContainerReader& r) {
-    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static"};
+    static const char* const names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static", "range-exp"};
     nlohmann::json j = nlohmann::json::object();
     for (const auto& s : r.sections())
         if (s.type == tlod::kSectionHtField || s.type == tlod::kSectionHtErrors) {
             const uint32_t m = tlod::section_mode(s.flags);
-            auto& slot = j[tlod::section_type_name(s.type)][m < 7 ? names[m] : "unknown"];
+            auto& slot = j[tlod::section_type_name(s.type)][m < 8 ? names[m] : "unknown"];
             slot = slot.is_null() ? 1 : slot.get<int>() + 1;
         }
     return j;
@@ -147,7 +150,7 @@ std::vector<char> slurp(const std::string& p) {
 std::string expected_json(const Vector& v, const Volume& vol, const tlod::Metadata& m, const nlohmann::json& modes) {
     std::ostringstream o;
     o.precision(17);
-    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.mode == 6 ? "3.7" : v.mode == 5 ? "3.6" : v.max_error > 0 ? "3.3" : v.compact ? "3.2" : "3.0") << "\",\n"
+    o << "{\n  \"file\": \"" << v.name << ".tlod\",\n  \"format_version\": \"" << (v.mode == 7 ? "3.8" : v.mode == 6 ? "3.7" : v.mode == 5 ? "3.6" : v.max_error > 0 ? "3.3" : v.compact ? "3.2" : "3.0") << "\",\n"
       << "  \"dims\": [" << m.dims.x << ", " << m.dims.y << ", " << m.dims.z << "],\n"
       << "  \"value_type\": \"" << value_type_name(m.type) << "\",\n"
       << "  \"spacing\": [" << m.spacing[0] << ", " << m.spacing[1] << ", " << m.spacing[2] << "],\n"
@@ -364,10 +367,17 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
                     std::memcpy(metadata.data(), f + off, raw);
             }
             if (le(8, 2) >= 3 && (type == 3 || type == 4)) {
-                const char* names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static"};
+                const char* names[] = {"range", "constant", "samples", "zero-residual", "lattice", "range-2d", "static", "range-exp"};
                 const uint64_t mode = (flags >> 8) & 15;
-                // lattice since 3.3, range-2d since 3.6, static since 3.7
-                ASSERT_LT(mode, le(10, 2) >= 7 ? 7u : le(10, 2) >= 6 ? 6u : le(10, 2) >= 3 ? 5u : 4u) << "section " << i;
+                // lattice since 3.3, range-2d since 3.6, static since 3.7, range-exp since 3.8
+                ASSERT_LT(mode, le(10, 2) >= 8 ? 8u : le(10, 2) >= 7 ? 7u : le(10, 2) >= 6 ? 6u : le(10, 2) >= 3 ? 5u : 4u) << "section " << i;
+                if (v.mode == 7 && type == 4 && mode == 0)  // forced: range only for chunks without diamonds
+                    EXPECT_EQ(stored, 0u) << "section " << i;
+                if (mode == 7) {  // an error mode, stored raw, >= 6 bytes (E0 and a range stream)
+                    EXPECT_EQ(type, 4u) << "section " << i;
+                    EXPECT_EQ(flags & 1, 0u) << "section " << i;
+                    EXPECT_GE(stored, 6u) << "section " << i;
+                }
                 if (mode == 6) {  // a field mode, stored raw, >= 19 bytes
                     EXPECT_EQ(type, 3u) << "section " << i;
                     EXPECT_EQ(flags & 1, 0u) << "section " << i;
@@ -468,6 +478,10 @@ TEST(TestVectors, JsonMatchesAnIndependentReading) {
         if (v.mode == 6) {  // 3.7 vectors: static on every field chunk with points
             EXPECT_EQ(le(10, 2), 7u);
             EXPECT_GT(modes["HT_FIELD"]["static"], 0);
+        }
+        if (v.mode == 7) {  // 3.8 vectors: range-exp on every error chunk with diamonds
+            EXPECT_EQ(le(10, 2), 8u);
+            EXPECT_GT(modes["HT_ERRORS"]["range-exp"], 0);
         }
         // Every key of the JSON is in the METADATA section, byte for byte.
         const std::string mtext(metadata.begin(), metadata.end());

@@ -106,11 +106,13 @@ TEST(InfoCli, Range2dChunksMakeA36FileAndTableFullKeepsThemOut) {
         const auto info = nlohmann::json::parse(j.out);
         if (extra.empty()) {
             EXPECT_GT(range2d_sections(info), 0) << j.out;
-            EXPECT_EQ(info["format_version"], "3.6");
+            EXPECT_EQ(info["format_version"], "3.8");  // 3.6 for range-2d, 3.8 for the range-exp error chunks
+            EXPECT_TRUE(contains(run("info '" + path + "'").out, "ht-range-exp"));
             EXPECT_TRUE(contains(run("info '" + path + "'").out, "ht-range-2d"));
         } else {
             EXPECT_EQ(range2d_sections(info), 0) << j.out;
             EXPECT_EQ(info["format_version"], "3.0");
+            for (const auto& s : info["sections"]) EXPECT_NE(s.value("mode", ""), "range-exp") << j.out;
         }
         const std::string back = tmp("range2d_back.raw");
         ASSERT_EQ(run("decode '" + path + "' '" + back + "' -f -q").code, 0);
@@ -119,7 +121,8 @@ TEST(InfoCli, Range2dChunksMakeA36FileAndTableFullKeepsThemOut) {
 }
 
 // Format 3.7: `convert --fast-decode` codes the field for decoding speed (chunk
-// mode 6, static, spec §6.4, §7.6): a 3.7 file whose info names the coder and
+// mode 6, static, spec §6.4, §7.6): a file of static field chunks (3.8: its
+// error chunks are range-exp, as by default) whose info names the coder and
 // whose bytes decode to the volume; with `--table full` (for older readers) it
 // is refused, naming the conflict, before anything is written.
 TEST(InfoCli, FastDecodeMakesA37FileOfStaticChunks) {
@@ -131,7 +134,7 @@ TEST(InfoCli, FastDecodeMakesA37FileOfStaticChunks) {
     const CliRun j = run("info --json '" + path + "'");
     ASSERT_EQ(j.code, 0) << j.err;
     const auto info = nlohmann::json::parse(j.out);
-    EXPECT_EQ(info["format_version"], "3.7");
+    EXPECT_EQ(info["format_version"], "3.8");
     int statics = 0, ranges = 0;
     for (const auto& s : info["sections"])
         if (s.value("type", "") == "HT_FIELD") {

@@ -52,13 +52,16 @@ TEST(LossyCli, PercentOfTheRangeShownByInfo) {
     EXPECT_EQ(info["format_version"], has_lattice(info) ? "3.3" : "3.1");
     EXPECT_EQ(info["table_layout"], "full");
     const auto compact = nlohmann::json::parse(run("info --json '" + converted(raw, "lossy_pct_c", "--max-error 2%") + "'").out);
-    // (3.6 when a field chunk is in the range-2d mode.)
-    auto has_range2d = [](const nlohmann::json& j) {
+    // (3.6 when a field chunk is in the range-2d mode, 3.8 when an error chunk is range-exp.)
+    auto has_mode = [](const nlohmann::json& j, const char* mode) {
         for (const auto& s : j["sections"])
-            if (s.value("mode", "") == "range-2d") return true;
+            if (s.value("mode", "") == mode) return true;
         return false;
     };
-    EXPECT_EQ(compact["format_version"], has_range2d(compact) ? "3.6" : has_lattice(compact) ? "3.3" : "3.2");
+    EXPECT_EQ(compact["format_version"], has_mode(compact, "range-exp")  ? "3.8"
+                                         : has_mode(compact, "range-2d") ? "3.6"
+                                         : has_lattice(compact)          ? "3.3"
+                                                                         : "3.2");
     EXPECT_EQ(compact["table_layout"], "compact");
     EXPECT_LT(compact["table_bytes"].get<uint64_t>(), info["table_bytes"].get<uint64_t>());
     EXPECT_EQ(info["table_bytes"].get<uint64_t>(), 48 * info["sections"].size());
@@ -161,9 +164,12 @@ TEST(LossyCli, BothModelsOverTheLossyField) {
     const std::string raw = sample_raw();
     const std::string path = converted(raw, "lossy_ht_mt", "--max-error 3 --model ht,mt");
     const auto info = nlohmann::json::parse(run("info --json '" + path + "'").out);
-    bool range2d = false;  // 3.6, which includes LOSSY_MT, when a field chunk is range-2d
-    for (const auto& s : info["sections"]) range2d = range2d || s.value("mode", "") == "range-2d";
-    EXPECT_EQ(info["format_version"], range2d ? "3.6" : "3.5");
+    bool range2d = false, range_exp = false;  // 3.6, which includes LOSSY_MT, when a field chunk is
+    for (const auto& s : info["sections"]) {  // range-2d; 3.8 when an error chunk is range-exp
+        range2d = range2d || s.value("mode", "") == "range-2d";
+        range_exp = range_exp || s.value("mode", "") == "range-exp";
+    }
+    EXPECT_EQ(info["format_version"], range_exp ? "3.8" : range2d ? "3.6" : "3.5");
     EXPECT_EQ(info["max_error"].get<double>(), 3.0);
     ASSERT_EQ(info["models"].size(), 2u) << info.dump();
     EXPECT_EQ(info["models"][1]["type"], "MT");

@@ -100,8 +100,9 @@ struct ContainerWriteOptions {
     /// with an MT).
     tlod::TableLayout table = tlod::TableLayout::compact;
     /// HT field chunks may use range-2d (chunk mode 5, format 3.6, spec §7.6)
-    /// where it saves bytes (with the compact table only); false writes only
-    /// what 3.0-3.5 readers read.
+    /// where it saves bytes, and error chunks range-exp (chunk mode 7, format
+    /// 3.8, spec §8.4), with the compact table only; false writes only what
+    /// 3.0-3.5 readers read.
     bool range_2d = true;
     /// HT field chunks in the modes that decode fast: static-table rANS (chunk
     /// mode 6, format 3.7, spec §7.6), or constant, zero-residual or samples
@@ -214,10 +215,11 @@ struct SectionCoderInfo {
     /// coding 2), "ht-planes-v1" (coding 1 byte planes; "+zstd" when flagged),
     /// "mt-zstd-payload" (MT_STRUCTURE), "unknown"; coding 3 chunk modes:
     /// "ht-range-v2", "ht-constant", "ht-samples+zstd", "ht-samples",
-    /// "ht-zero-residual", "ht-lattice" (3.3), "ht-range-2d" (3.6), "ht-static-rans" (3.7).
+    /// "ht-zero-residual", "ht-lattice" (3.3), "ht-range-2d" (3.6), "ht-static-rans" (3.7),
+    /// "ht-range-exp" (3.8).
     std::string coder;
     /// Coding 3 HT chunks: the chunk mode ("range", "constant", "samples",
-    /// "zero-residual", "lattice", "range-2d", "static"); empty for every other section.
+    /// "zero-residual", "lattice", "range-2d", "static", "range-exp"); empty for every other section.
     std::string mode;
     std::string description;  // one line for people, naming the spec section
     uint64_t count = 0;       // sections of this type

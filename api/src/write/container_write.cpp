@@ -116,6 +116,8 @@ HtEncodeOptions ht_encode_fields(const ContainerWriteOptions& o) {
     e.table = o.table;
     // The full table is for readers older than 3.2: no 3.6 chunk mode either.
     e.range_2d = o.range_2d && o.table == tlod::TableLayout::compact;
+    // range_2d false asks for what 3.0-3.5 readers read: no range-exp (3.8) either.
+    e.range_exp = e.range_2d;
     e.fast_decode = o.fast_decode;
     return e;
 }

@@ -15,7 +15,10 @@
 //   static         (field only, format 3.7) one symbol per point from tables
 //                  the chunk carries, static-table rANS: larger, decodes
 //                  several times faster; written only when asked for
-//                  (fast_decode; ht_static_chunk_coder.hpp).
+//                  (fast_decode; ht_static_chunk_coder.hpp);
+//   range-exp      (errors only, format 3.8) range's stream with contexts
+//                  from the lattice bound's exponent and modelled low bits
+//                  (§8.4, ht_error_chunk_coder.hpp): 10-25 % smaller.
 // Range coding wins on most chunks; the others bound the cost of constant,
 // sparse and incompressible chunks, where the range coder loses to zstd.
 #include <algorithm>
@@ -42,6 +45,7 @@ enum ChunkMode : uint32_t {
     kModeLattice = 4,  // format 3.3
     kModeRange2d = 5,  // format 3.6
     kModeStatic = 6,   // format 3.7
+    kModeRangeExp = 7, // format 3.8
 };
 /// Spec §6.4: constant, zero-residual and static chunks hold at most 2^22 values, so
 /// a chunk (96 bytes of table entries at least) expands no more than a zstd frame.
@@ -56,6 +60,7 @@ inline const char* chunk_mode_name(uint32_t mode) {
         case kModeLattice: return "lattice";
         case kModeRange2d: return "range-2d";
         case kModeStatic: return "static";
+        case kModeRangeExp: return "range-exp";
         default: return "unknown";
     }
 }
@@ -107,6 +112,7 @@ struct ChunkModeChoice {
     // static of format 3.7, samples when smaller than static); chunks above 2^22
     // points (static's limit) as without it.
     bool fast_decode = false;
+    bool range_exp = true;  // error chunks in range-exp (format 3.8) rather than range
 };
 
 /// Keeps the smaller of `best` and `cand` (the earlier one on a tie, so the
@@ -236,6 +242,10 @@ CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk&
     return best;
 }
 
+/// Error chunks of at most this many diamonds are coded both ways (see
+/// encode_error_chunk_v3).
+constexpr uint64_t kBothErrorCodersBelow = 4096;
+
 template <class T>
 CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
                                    int m, ChunkModeChoice o) {
@@ -243,7 +253,14 @@ CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<cons
     if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice) || o.forced == int(kModeRange2d) ||
         o.forced == int(kModeStatic))
         o.forced = int(kModeRange);  // field-only modes
-    CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
+    if (o.forced == int(kModeRangeExp)) return coded(encode_error_chunk_v2<T, true>(G, v, e, c, m), kModeRangeExp);
+    // Range-exp alone, but both on small chunks, where its larger set of
+    // contexts may not have learnt enough to pay (it costs little there).
+    const bool exp = o.range_exp && o.forced < 0;
+    CodedSection range = exp ? coded(encode_error_chunk_v2<T, true>(G, v, e, c, m), kModeRangeExp)
+                             : coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
+    if (exp && c.diamonds <= kBothErrorCodersBelow)
+        keep_smaller(range, coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange));
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
         gather_chunk<2>(G, c, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });
@@ -318,6 +335,9 @@ std::string decode_error_chunk_v3(const Geometry& G, const T* v, float* e, const
     switch (mode) {
         case kModeRange:
             return decode_error_chunk_v2<T>(G, v, e, c, m, in) ? "" : "error code out of range or malformed stream";
+        case kModeRangeExp:
+            return decode_error_chunk_v2<T, true>(G, v, e, c, m, in) ? ""
+                                                                    : "error code out of range or malformed stream";
         case kModeConstant:
             if (in.size() != 2) return "constant chunk of the wrong size";
             return scatter([&](std::size_t) { return tlod::load_le(in.data(), 2); });

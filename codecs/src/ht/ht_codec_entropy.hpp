@@ -186,4 +186,48 @@ struct IntModel {
     mag = v;
 }
 
+/// Spec §8.4: the integer model of error chunks of mode 7. Zero flag, sign and
+/// unary length as IntModel (lengths up to 16), but every bit below the
+/// leading one has a context, per (length, position), from a MantissaModel
+/// shared by several of these: an error code's low bits are its float
+/// exponent's low bits and its mantissa, far from uniform (coded direct,
+/// as IntModel does below its top two, they cost a fifth of the error bytes).
+struct ShortIntModel {
+    Bit zero, sign;
+    Bit len[16];
+};
+struct MantissaModel {
+    Bit bit[17][16];  // [length][position below the leading one]
+};
+
+/// mag: |value| (0 .. 2^16-1); neg: sign.
+[[gnu::always_inline]] inline void encode_short_int(Encoder& e, ShortIntModel& m, MantissaModel& mm, uint32_t mag,
+                                                    bool neg) {
+    e.encode(m.zero, mag == 0);
+    if (mag == 0) return;
+    e.encode(m.sign, neg);
+    const int n = bit_length(mag);
+    for (int i = 1; i < 16; ++i) {
+        const int more = n > i;
+        e.encode(m.len[i], more);
+        if (!more) break;
+    }
+    for (int j = n - 2; j >= 0; --j) e.encode(mm.bit[n][n - 2 - j], int((mag >> j) & 1));
+}
+
+[[gnu::always_inline]] inline void decode_short_int(Decoder& d, ShortIntModel& m, MantissaModel& mm, uint32_t& mag,
+                                                    bool& neg) {
+    if (d.decode(m.zero)) {
+        mag = 0;
+        neg = false;
+        return;
+    }
+    neg = d.decode(m.sign) != 0;
+    int n = 1;
+    while (n < 16 && d.decode(m.len[n])) ++n;
+    uint32_t v = 1;
+    for (int j = n - 2; j >= 0; --j) v = (v << 1) | uint32_t(d.decode(mm.bit[n][n - 2 - j]));
+    mag = v;
+}
+
 }  // namespace tetlod::rc

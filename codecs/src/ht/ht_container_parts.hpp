@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "ht_chunk_geometry.hpp"
+#include "ht_chunk_modes.hpp"
+#include "tetlod/codecs/ht/ht_codec.hpp"
 #include "tetlod/format/container.hpp"
 #include "tetlod/format/metadata.hpp"
 #include "tetlod/codecs/lossy_field.hpp"
@@ -68,6 +70,19 @@ private:
     float limit_;
     float raw_max_ = 0;
 };
+
+/// The chunk modes an encode with `o` may choose: the one mapping, so whole,
+/// streamed and distributed encodes code alike.
+inline ChunkModeChoice chunk_mode_choice(const HtEncodeOptions& o) {
+    ChunkModeChoice c;
+    c.forced = o.chunk_mode;
+    c.zstd_level = o.chunk_zstd_level;
+    c.max_error = o.max_error;
+    c.range_2d = o.range_2d;
+    c.fast_decode = o.fast_decode;
+    c.range_exp = o.range_exp;
+    return c;
+}
 
 /// The sections an HT container starts with (METADATA with the error
 /// summary, HT_HEADER), added to `w` with its features: shared by the

@@ -88,7 +88,7 @@ void HtRowEncoder::encode(HtBrickRow row, const std::byte* values, const float* 
     const auto nb = G.bricks(t);
     const std::size_t per_row = std::size_t(nb[0] * nb[1]);
     const int m = o_.error_mantissa_bits;
-    const ChunkModeChoice choice{o_.chunk_mode, o_.chunk_zstd_level, o_.max_error, o_.range_2d, o_.fast_decode};
+    const ChunkModeChoice choice = chunk_mode_choice(o_);
     std::vector<CodedSection> fs(per_row), es(per_row);
     dispatch_value_type(type_, [&](auto tag) {
         using T = decltype(tag);

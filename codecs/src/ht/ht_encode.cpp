@@ -38,7 +38,7 @@ bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     writer.add_stored(tlod::kSectionHtHeader, tlod::kSectionCritical, 0, 0, hh, hh.size());
 
     std::vector<CodedSection> fs(chunks.size()), es(chunks.size());
-    const ChunkModeChoice choice{o.chunk_mode, o.chunk_zstd_level, o.max_error, o.range_2d, o.fast_decode};
+    const ChunkModeChoice choice = chunk_mode_choice(o);
     // Parallel over chunks in batches so progress is reported from this thread.
     // Each chunk's mode depends on that chunk alone: same bytes for any thread count.
     const std::size_t batch = 64;

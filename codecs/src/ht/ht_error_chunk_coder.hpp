@@ -10,6 +10,38 @@ struct ErrorModels {
     rc::Bit inf[4][2];  // class 3 (corners) never used: corners are not diamonds
     rc::IntModel m[4][2][6];
 };
+
+/// Spec §8.4 (chunk mode 7, format 3.8): the lattice bound's exponent picks
+/// the context. Bucket 0 is a zero bound; 1 .. kErrorBuckets-1 the bound's
+/// exponent from the chunk's base E0 on (below E0 shares bucket 1, above
+/// the last shares the last). How far a diamond's error exceeds what its
+/// lattice shows depends on the scale of the detail there.
+constexpr int kErrorBuckets = 24;
+struct ErrorModelsExp {
+    rc::Bit inf[4][2];
+    rc::ShortIntModel m[4][kErrorBuckets][4];
+    rc::MantissaModel mant[kErrorBuckets];
+};
+inline int error_bucket(uint32_t lb, int m, int e0) {
+    if (lb == 0) return 0;
+    return 1 + std::clamp(int(lb >> m) - e0, 0, kErrorBuckets - 2);
+}
+/// The encoder's E0: the top kErrorBuckets-1 exponents of the chunk's finite
+/// codes get a bucket each (the bounds are at most the codes, nearly always).
+template <class Codes>
+uint8_t error_base_exponent(const Geometry& G, const HtChunk& c, int m, Codes&& code_at) {
+    const uint32_t qmax = max_error_code(m);
+    uint32_t top = 0;
+    G.for_each_row(c.cycle, c.box, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
+        const int64_t didx = G.index_delta(step, 0, 0);
+        int64_t idx = G.index(x0, y, z);
+        for (int64_t x = x0; x <= x1; x += step, idx += didx) {
+            const uint32_t q = code_at(idx);
+            if (q < qmax) top = std::max(top, q >> m);
+        }
+    });
+    return uint8_t(std::max(0, int(top) - (kErrorBuckets - 2)));
+}
 /// Spec §8.3: may the diamond centred at c have a tet outside B (then it may be +inf)?
 inline int touches_far_face(const Geometry& G, int t, int64_t x, int64_t y, int64_t z) {
     const int64_t h = int64_t{1} << t;
@@ -134,12 +166,29 @@ uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F,
     return lattice_bound_near_face(v + idx, E, F.off, avail, m);
 }
 
-template <class T>
+/// Exp: chunk mode 7 (§8.4), the exponent contexts; else mode 0 (§8.3).
+template <class T, bool Exp = false>
 std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std::span<const float> e,
                                              const HtChunk& c, int m) {
     std::vector<std::byte> out;
     if (c.diamonds == 0) return out;
-    auto models = std::make_unique<ErrorModels>();
+    using Models = std::conditional_t<Exp, ErrorModelsExp, ErrorModels>;
+    auto models = std::make_unique<Models>();
+    int e0 = 0;
+    if constexpr (Exp) {
+        e0 = error_base_exponent(G, c, m, [&](int64_t i) { return quantize_error(e[std::size_t(i)], m); });
+        out.push_back(std::byte(e0));
+    }
+    // The integer model of a diamond of class cls with bound code lb and
+    // neighbours' bit length nbl, and how its magnitude is coded.
+    auto code_int = [&](rc::Encoder& en, int cls, uint32_t lb, int nbl, uint64_t mag, bool neg) {
+        if constexpr (Exp) {
+            const int g = error_bucket(lb, m, e0);
+            rc::encode_short_int(en, models->m[cls][g][std::min(3, nbl)], models->mant[g], uint32_t(mag), neg);
+        } else {
+            rc::encode_int(en, models->m[cls][lb != 0][std::min(5, nbl)], mag, neg, 16);
+        }
+    };
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     const ChunkFrame F(G, c.cycle, c.box);
@@ -180,16 +229,15 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
             if (bound_is_error && interior.contains(x)) {
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
-                const int nb = deep.contains(x) ? 0 : std::min(5, rc::bit_length(L.neighbour_mean(s)));
-                rc::encode_int(enc, models->m[cls][q != 0][nb], 0, false, 16);
+                const int nb = deep.contains(x) ? 0 : rc::bit_length(L.neighbour_mean(s));
+                code_int(enc, cls, q, nb, 0, false);
                 L.set(s, 0);
                 continue;
             }
             const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
             const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
-            const int nb = std::min(5, rc::bit_length(L.neighbour_mean(s)));
-            rc::encode_int(enc, models->m[cls][lb != 0][nb], mag, delta < 0, 16);
+            code_int(enc, cls, lb, rc::bit_length(L.neighbour_mean(s)), mag, delta < 0);
             L.set(s, mag);
         }
     });
@@ -197,12 +245,19 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
     return out;
 }
 
-/// False on a malformed stream or a code out of range.
-template <class T>
+/// False on a malformed stream or a code out of range. Exp: mode 7 (§8.4).
+template <class T, bool Exp = false>
 bool decode_error_chunk_v2(const Geometry& G, const T* v, float* e, const HtChunk& c, int m,
                            std::span<const std::byte> in) {
     if (c.diamonds == 0) return in.empty();
-    auto models = std::make_unique<ErrorModels>();
+    using Models = std::conditional_t<Exp, ErrorModelsExp, ErrorModels>;
+    auto models = std::make_unique<Models>();
+    int e0 = 0;
+    if constexpr (Exp) {
+        if (in.empty()) return false;
+        e0 = std::to_integer<int>(in[0]);
+        in = in.subspan(1);
+    }
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     const ChunkFrame F(G, c.cycle, c.box);
@@ -219,10 +274,17 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, float* e, const HtChun
             return;
         }
         const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
-        const int nb = std::min(5, rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z))));
+        const int nbl = rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z)));
         uint64_t mag;
         bool neg;
-        rc::decode_int(dec, models->m[cls][lb != 0][nb], mag, neg, 16);
+        if constexpr (Exp) {
+            const int g = error_bucket(lb, m, e0);
+            uint32_t mag32;
+            rc::decode_short_int(dec, models->m[cls][g][std::min(3, nbl)], models->mant[g], mag32, neg);
+            mag = mag32;
+        } else {
+            rc::decode_int(dec, models->m[cls][lb != 0][std::min(5, nbl)], mag, neg, 16);
+        }
         const int64_t q = int64_t(lb) + (neg ? -int64_t(mag) : int64_t(mag));
         if (q < 0 || q >= int64_t(qmax) || (neg && mag == 0)) {
             ok = false;

@@ -20,11 +20,12 @@ std::optional<std::pair<ErrorCode, std::string>> check_chunk_mode(const tlod::Se
     const uint32_t mode = tlod::section_mode(s.flags);
     const bool zstd = (s.flags & tlod::kSectionZstd) != 0;
     auto bad = [](std::string m) { return std::optional{std::pair{ErrorCode::CorruptData, std::move(m)}}; };
-    if (mode > kModeStatic ||
-        ((mode == kModeZeroResidual || mode == kModeLattice || mode == kModeRange2d || mode == kModeStatic) && !field))
+    if (mode > kModeRangeExp ||
+        ((mode == kModeZeroResidual || mode == kModeLattice || mode == kModeRange2d || mode == kModeStatic) && !field) ||
+        (mode == kModeRangeExp && field))
         return std::optional{std::pair{ErrorCode::UnsupportedFeature,
                                        "unknown chunk mode " + std::to_string(mode) +
-                                           (field ? "" : " for error codes")}};
+                                           (field ? " for field values" : " for error codes")}};
     if (n == 0 && (mode != kModeRange || s.raw_size != 0)) return bad("an empty chunk must be an empty range-mode section");
     if (zstd && mode != kModeSamples) return bad(std::string(chunk_mode_name(mode)) + " chunks must not be zstd-compressed");
     if ((mode == kModeConstant || mode == kModeZeroResidual || mode == kModeStatic) && n > kMaxModelledPoints)
@@ -167,9 +168,11 @@ Expected<HtLayout> read_ht_layout(tlod::ContainerReader& r) {
                 if (auto bad = check_chunk_mode(s, count, si == c.field_section ? uint64_t(W) : 2,
                                                 si == c.field_section, has_lattice))
                     return fail(bad->first, sec + bad->second);
-                // Lattice and range-2d streams are range-coder streams: the same size rules.
+                // Lattice, range-2d and range-exp streams are range-coder streams: the
+                // same size rules (range-exp's base exponent byte only makes them stricter).
                 const uint32_t mode = tlod::section_mode(s.flags);
-                if (mode != kModeRange && mode != kModeLattice && mode != kModeRange2d) continue;
+                if (mode != kModeRange && mode != kModeLattice && mode != kModeRange2d && mode != kModeRangeExp)
+                    continue;
             } else if (s.flags & tlod::kSectionModeMask) {
                 return fail(ErrorCode::CorruptData, sec + "chunk mode bits set in a file of residual coding " +
                                                         std::to_string(L.residual_coding));

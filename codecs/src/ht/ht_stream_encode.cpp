@@ -366,8 +366,7 @@ private:
         const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
         std::vector<CodedSection> fs(per_row), es(per_row);
         const std::span<const float> errors(r.errors);
-        const ChunkModeChoice choice{o_.encode.chunk_mode, o_.encode.chunk_zstd_level, o_.encode.max_error,
-                                     o_.encode.range_2d, o_.encode.fast_decode};
+        const ChunkModeChoice choice = chunk_mode_choice(o_.encode);
         tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
             const HtChunk& c = chunks_[base + j];
             fs[j] = encode_field_chunk_v3<T>(r.window, r.values.data(), c, choice);

@@ -58,6 +58,12 @@ inline constexpr uint32_t kFirstChunkModeOf3_6 = 5;
 inline constexpr uint16_t kVersion3_7_Minor = 7;
 /// The first chunk mode of 3.7.
 inline constexpr uint32_t kFirstChunkModeOf3_7 = 6;
+/// 3.8: HT chunk mode 7, range-exp (spec §6.4, §8.4), error chunks of any file.
+/// Written by default (with the compact table): a 3.7 reader refuses such a
+/// file (unknown chunk mode).
+inline constexpr uint16_t kVersion3_8_Minor = 8;
+/// The first chunk mode of 3.8.
+inline constexpr uint32_t kFirstChunkModeOf3_8 = 7;
 inline constexpr uint16_t kVersionMajor = kVersion3_0_Major;  // what this library writes
 inline constexpr uint16_t kVersionMinor = kVersion3_0_Minor;  // (3.1 when a file is lossy)
 /// Oldest major version this library still reads (1.x files decode unchanged).

@@ -34,8 +34,8 @@ struct HtEncodeOptions {
     /// samples, 3 zero-residual, 4 lattice (field chunks of lossy files whose
     /// values are all on the step's lattice, format 3.3), 5 range-2d (field
     /// chunks, format 3.6), 6 static (field chunks of at most 2^22 points,
-    /// format 3.7) force that mode wherever it can code the chunk (tests),
-    /// range elsewhere.
+    /// format 3.7), 7 range-exp (error chunks, format 3.8) force that mode
+    /// wherever it can code the chunk (tests), range elsewhere.
     int chunk_mode = -1;
     /// zstd level of the samples mode (the per-chunk fallback).
     int chunk_zstd_level = 19;
@@ -57,6 +57,12 @@ struct HtEncodeOptions {
     /// (docs/archival.md, "Fast decoding"). Error chunks are unchanged. Needs the
     /// compact table.
     bool fast_decode = false;
+    /// Error chunks coded in range-exp (chunk mode 7, format 3.8, spec §8.4):
+    /// contexts from the lattice bound's exponent, 5-25 % fewer error bytes.
+    /// False writes only what 3.0-3.7 readers read (as range_2d, the caller
+    /// sets it with the table it wants: container writes turn both off with
+    /// the full one).
+    bool range_exp = true;
     /// Called with (chunks done, chunks total) from the calling thread.
     std::function<void(std::size_t, std::size_t)> progress;
     /// > 0: encode_ht stops and returns false as soon as its chunk sections
