@@ -69,6 +69,22 @@ uint64_t pack(const Pt& p) {
     return (uint64_t(uint32_t(p[0])) << 42) | (uint64_t(uint32_t(p[1])) << 21) | uint64_t(p[2]);
 }
 
+/// A hash of packed points for TBB's concurrent sets, whose buckets are the
+/// hash's low bits: std::hash<uint64_t> is the identity there, and every
+/// point of the plane z = 2^k (outside the data box of a volume whose z is not
+/// 2^k + 1) had the same low bits, one bucket, so lookups walked a chain of
+/// all of them (a fifth of a 5 % LOD of bucky 128^3). The MurmurHash3 finaliser.
+struct PackedPointHash {
+    std::size_t operator()(uint64_t k) const {
+        k ^= k >> 33;
+        k *= 0xff51afd7ed558ccdull;
+        k ^= k >> 33;
+        k *= 0xc4ceb9fe1a85ec53ull;
+        k ^= k >> 33;
+        return std::size_t(k);
+    }
+};
+
 constexpr uint32_t kNoVertex = 0xFFFFFFFFu;
 using VertexIds = std::array<uint32_t, 4>;
 
@@ -770,7 +786,7 @@ private:
     bool has_region_ = false;
 
     Marks marks_;
-    tbb::concurrent_unordered_set<uint64_t> outside_split_;
+    tbb::concurrent_unordered_set<uint64_t, PackedPointHash> outside_split_;
     TetMesh mesh_;
     double max_error_ = 0;
     uint64_t split_count_ = 0, visited_ = 0;

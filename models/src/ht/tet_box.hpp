@@ -77,6 +77,30 @@ inline BoxRelation classify_against_data_box(const Tet& t, const std::array<int3
     for (const Pt& p : t)
         if (p[0] > m[0] || p[1] > m[1] || p[2] > m[2]) inside = false;
     if (inside) return BoxRelation::Inside;  // tets never have negative coordinates
+    // A point of the closed tet strictly inside B: the interiors meet (a
+    // neighbourhood of the point, inside B, meets the tet's interior). The
+    // vertices, the centroid, then the points of barycentric coordinates 2/5
+    // towards each vertex (in integers: 1, 4 and 5 x the points). Nearly every
+    // tet across B's far faces is decided here, without the 13 axes of the
+    // full test.
+    for (const Pt& p : t)
+        if (p[0] > 0 && p[1] > 0 && p[2] > 0 && p[0] < m[0] && p[1] < m[1] && p[2] < m[2])
+            return BoxRelation::Crossing;
+    int64_t sum[3];
+    bool centroid_inside = true;
+    for (int a = 0; a < 3; ++a) {
+        sum[a] = int64_t(t[0][a]) + t[1][a] + t[2][a] + t[3][a];
+        centroid_inside = centroid_inside && sum[a] > 0 && sum[a] < 4 * int64_t(m[a]);
+    }
+    if (centroid_inside) return BoxRelation::Crossing;
+    for (const Pt& p : t) {
+        bool near_vertex_inside = true;
+        for (int a = 0; a < 3; ++a) {
+            const int64_t s5 = sum[a] + p[a];
+            near_vertex_inside = near_vertex_inside && s5 > 0 && s5 < 5 * int64_t(m[a]);
+        }
+        if (near_vertex_inside) return BoxRelation::Crossing;
+    }
     IBox b{{0, 0, 0}, {m[0], m[1], m[2]}};
     return tet_interior_meets_box(t, b) ? BoxRelation::Crossing : BoxRelation::Outside;
 }
