@@ -108,7 +108,7 @@ TEST_P(ChunkModes, EveryModeBitExact) {
             if (mode != 6) EXPECT_EQ(fm[6], 0);
             EXPECT_EQ(em[6], 0);
             // Range-exp (format 3.8): every error chunk with diamonds, never a field chunk;
-            // the writer's choice on the larger error chunks (above 4096 diamonds: none here).
+            // by choice, where it is smaller than range.
             if (mode == 7) EXPECT_EQ(em[0] + em[1] + em[2], 0);
             if (mode == 7) EXPECT_GT(em[7], 0);
             if (mode != 7 && mode != -1) EXPECT_EQ(em[7], 0);
