@@ -58,7 +58,7 @@ struct HtEncodeOptions {
     /// compact table.
     bool fast_decode = false;
     /// Error chunks coded in range-exp (chunk mode 7, format 3.8, spec §8.4):
-    /// contexts from the lattice bound's exponent, 5-25 % fewer error bytes.
+    /// contexts from the lattice bound's exponent, up to 35 % fewer error bytes.
     /// False writes only what 3.0-3.7 readers read (as range_2d, the caller
     /// sets it with the table it wants: container writes turn both off with
     /// the full one).
