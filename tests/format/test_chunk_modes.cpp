@@ -431,7 +431,8 @@ TEST(ChunkModesHostile, RangeExpRefusedWithSpecificErrors) {
     ASSERT_GT(good[big].info.raw_size, 20u);
     ASSERT_EQ(open_failure(rebuild(good)).code, ErrorCode::Ok) << open_failure(rebuild(good)).message;
     auto decoded_errors = [&](const std::vector<Section>& ss) {
-        auto r = ContainerReader::from_memory(rebuild(ss));
+        const auto bytes = rebuild(ss);  // the reader reads from it: alive as long as the reader
+        auto r = ContainerReader::from_memory(bytes);
         auto d = decode_ht(*r);
         return d ? std::vector<float>(d->errors.begin(), d->errors.end()) : std::vector<float>{};
     };
