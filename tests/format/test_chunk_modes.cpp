@@ -309,7 +309,8 @@ TEST(ChunkModesHostile, Range2dRefusedWithSpecificErrors) {
         set_mode(ss[big], 0);
         const Failure f = open_failure(rebuild(ss));
         if (f.code == ErrorCode::Ok) {
-            auto r = ContainerReader::from_memory(rebuild(ss));
+            const auto bytes = rebuild(ss);  // alive as long as the reader
+            auto r = ContainerReader::from_memory(bytes);
             EXPECT_NE(decode_ht(*r)->field.data, v.data);
         } else {
             EXPECT_EQ(f.code, ErrorCode::CorruptData) << f.message;
