@@ -147,17 +147,37 @@ struct IntModel {
 /// Bit length of v (0 for 0).
 [[gnu::always_inline]] inline int bit_length(uint64_t v) { return v ? 64 - __builtin_clzll(v) : 0; }
 
-/// mag: |value| (1 .. 2^64-1 or 0); neg: sign. maxlen: the largest possible length.
-[[gnu::always_inline]] inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
-    e.encode(m.zero, mag == 0);
-    if (mag == 0) return;
-    e.encode(m.sign, neg);
+/// The head every integer model shares: zero flag, sign, bit length n by unary
+/// (len[1 .. maxlen-1]). Returns n (0 for a zero).
+[[gnu::always_inline]] inline int encode_int_head(Encoder& e, Bit& zero, Bit& sign, Bit* len, uint64_t mag, bool neg,
+                                                  int maxlen) {
+    e.encode(zero, mag == 0);
+    if (mag == 0) return 0;
+    e.encode(sign, neg);
     const int n = bit_length(mag);
     for (int i = 1; i < maxlen; ++i) {  // unary: 1 while n > i
         const int more = n > i;
-        e.encode(m.len[i], more);
+        e.encode(len[i], more);
         if (!more) break;
     }
+    return n;
+}
+
+/// Inverse of encode_int_head: n (0 for a zero, then neg is false).
+[[gnu::always_inline]] inline int decode_int_head(Decoder& d, Bit& zero, Bit& sign, Bit* len, bool& neg, int maxlen) {
+    if (d.decode(zero)) {
+        neg = false;
+        return 0;
+    }
+    neg = d.decode(sign) != 0;
+    int n = 1;
+    while (n < maxlen && d.decode(len[n])) ++n;
+    return n;
+}
+
+/// mag: |value| (1 .. 2^64-1 or 0); neg: sign. maxlen: the largest possible length.
+[[gnu::always_inline]] inline void encode_int(Encoder& e, IntModel& m, uint64_t mag, bool neg, int maxlen) {
+    const int n = encode_int_head(e, m.zero, m.sign, m.len, mag, neg, maxlen);
     for (int j = n - 2; j >= 0; --j) {
         const int bit = int((mag >> j) & 1);
         const int pos = n - 2 - j;  // 0 = just below the leading one
@@ -169,14 +189,11 @@ struct IntModel {
 /// Inverse of encode_int; returns false (value meaningless) when the decoded
 /// length exceeds maxlen (cannot happen: the unary code stops at maxlen).
 [[gnu::always_inline]] inline void decode_int(Decoder& d, IntModel& m, uint64_t& mag, bool& neg, int maxlen) {
-    if (d.decode(m.zero)) {
+    const int n = decode_int_head(d, m.zero, m.sign, m.len, neg, maxlen);
+    if (n == 0) {
         mag = 0;
-        neg = false;
         return;
     }
-    neg = d.decode(m.sign) != 0;
-    int n = 1;
-    while (n < maxlen && d.decode(m.len[n])) ++n;
     uint64_t v = 1;
     for (int j = n - 2; j >= 0; --j) {
         const int pos = n - 2 - j;
@@ -203,28 +220,17 @@ struct MantissaModel {
 /// mag: |value| (0 .. 2^16-1); neg: sign.
 [[gnu::always_inline]] inline void encode_short_int(Encoder& e, ShortIntModel& m, MantissaModel& mm, uint32_t mag,
                                                     bool neg) {
-    e.encode(m.zero, mag == 0);
-    if (mag == 0) return;
-    e.encode(m.sign, neg);
-    const int n = bit_length(mag);
-    for (int i = 1; i < 16; ++i) {
-        const int more = n > i;
-        e.encode(m.len[i], more);
-        if (!more) break;
-    }
+    const int n = encode_int_head(e, m.zero, m.sign, m.len, mag, neg, 16);
     for (int j = n - 2; j >= 0; --j) e.encode(mm.bit[n][n - 2 - j], int((mag >> j) & 1));
 }
 
 [[gnu::always_inline]] inline void decode_short_int(Decoder& d, ShortIntModel& m, MantissaModel& mm, uint32_t& mag,
                                                     bool& neg) {
-    if (d.decode(m.zero)) {
+    const int n = decode_int_head(d, m.zero, m.sign, m.len, neg, 16);
+    if (n == 0) {
         mag = 0;
-        neg = false;
         return;
     }
-    neg = d.decode(m.sign) != 0;
-    int n = 1;
-    while (n < 16 && d.decode(m.len[n])) ++n;
     uint32_t v = 1;
     for (int j = n - 2; j >= 0; --j) v = (v << 1) | uint32_t(d.decode(mm.bit[n][n - 2 - j]));
     mag = v;
