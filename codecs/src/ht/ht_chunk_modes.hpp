@@ -249,15 +249,16 @@ CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<cons
     if (o.forced == int(kModeZeroResidual) || o.forced == int(kModeLattice) || o.forced == int(kModeRange2d) ||
         o.forced == int(kModeStatic))
         o.forced = int(kModeRange);  // field-only modes
-    if (o.forced == int(kModeRangeExp)) return coded(encode_error_chunk_v2<T, true>(G, v, e, c, m), kModeRangeExp);
-    // Both coders, the smaller kept (range on a tie): range-exp's larger set of
-    // contexts loses where there is little to learn (float chunks whose bounds
-    // are nearly all exact, as m4's cycle 0: +90 bytes). The second pass costs
-    // little (bucky 128^3's convert: within the noise), and the zstd trial's
-    // screen (samples_mode) now rejects more chunks, as the range size is smaller.
-    CodedSection range = coded(encode_error_chunk_v2<T>(G, v, e, c, m), kModeRange);
-    if (o.range_exp && o.forced < 0)
-        keep_smaller(range, coded(encode_error_chunk_v2<T, true>(G, v, e, c, m), kModeRangeExp));
+    thread_local std::vector<ErrorSymbol> sym;
+    gather_error_symbols(G, v, e, c, m, sym);
+    if (o.forced == int(kModeRangeExp)) return coded(code_error_symbols<true>(sym, m), kModeRangeExp);
+    // Both coders on the same symbols, the smaller kept (range on a tie):
+    // range-exp's larger set of contexts loses where there is little to learn
+    // (float chunks whose bounds are nearly all exact, as m4's cycle 0: +90
+    // bytes), and the zstd trial's screen (samples_mode) rejects more chunks
+    // the smaller the range size is.
+    CodedSection range = coded(code_error_symbols<false>(sym, m), kModeRange);
+    if (o.range_exp && o.forced < 0) keep_smaller(range, coded(code_error_symbols<true>(sym, m), kModeRangeExp));
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
         gather_chunk<2>(G, c, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });

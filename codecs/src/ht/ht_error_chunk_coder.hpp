@@ -26,22 +26,6 @@ inline int error_bucket(uint32_t lb, int m, int e0) {
     if (lb == 0) return 0;
     return 1 + std::clamp(int(lb >> m) - e0, 0, kErrorBuckets - 2);
 }
-/// The encoder's E0: the top kErrorBuckets-1 exponents of the chunk's finite
-/// codes get a bucket each (the bounds are at most the codes, nearly always).
-template <class Codes>
-uint8_t error_base_exponent(const Geometry& G, const HtChunk& c, int m, Codes&& code_at) {
-    const uint32_t qmax = max_error_code(m);
-    uint32_t top = 0;
-    G.for_each_row(c.cycle, c.box, [&](int64_t x0, int64_t x1, int64_t step, int64_t y, int64_t z) {
-        const int64_t didx = G.index_delta(step, 0, 0);
-        int64_t idx = G.index(x0, y, z);
-        for (int64_t x = x0; x <= x1; x += step, idx += didx) {
-            const uint32_t q = code_at(idx);
-            if (q < qmax) top = std::max(top, q >> m);
-        }
-    });
-    return uint8_t(std::max(0, int(top) - (kErrorBuckets - 2)));
-}
 /// Spec §8.3: may the diamond centred at c have a tet outside B (then it may be +inf)?
 inline int touches_far_face(const Geometry& G, int t, int64_t x, int64_t y, int64_t z) {
     const int64_t h = int64_t{1} << t;
@@ -166,33 +150,32 @@ uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F,
     return lattice_bound_near_face(v + idx, E, F.off, avail, m);
 }
 
-/// Exp: chunk mode 7 (§8.4), the exponent contexts; else mode 0 (§8.3).
-template <class T, bool Exp = false>
-std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std::span<const float> e,
-                                             const HtChunk& c, int m) {
-    std::vector<std::byte> out;
-    if (c.diamonds == 0) return out;
-    using Models = std::conditional_t<Exp, ErrorModelsExp, ErrorModels>;
-    auto models = std::make_unique<Models>();
-    int e0 = 0;
-    if constexpr (Exp) {
-        e0 = error_base_exponent(G, c, m, [&](int64_t i) { return quantize_error(e[std::size_t(i)], m); });
-        out.push_back(std::byte(e0));
-    }
-    // The integer model of a diamond of class cls with bound code lb and
-    // neighbours' bit length nbl, and how its magnitude is coded.
-    auto code_int = [&](rc::Encoder& en, int cls, uint32_t lb, int nbl, uint64_t mag, bool neg) {
-        if constexpr (Exp) {
-            const int g = error_bucket(lb, m, e0);
-            rc::encode_short_int(en, models->m[cls][g][std::min(3, nbl)], models->mant[g], uint32_t(mag), neg);
-        } else {
-            rc::encode_int(en, models->m[cls][lb != 0][std::min(5, nbl)], mag, neg, 16);
-        }
-    };
+/// What the coders of §8.3 and §8.4 code for one diamond, in the chunk's class
+/// order: both code the same Inf bits and the same residuals q - lb against the
+/// same lattice bounds and neighbours' magnitudes; only their models differ. The
+/// writer tries both on every error chunk, so the walk that finds these (the
+/// lattice bounds: a third of the error coding's time) runs once.
+struct ErrorSymbol {
+    uint16_t lb;      // lattice bound code (meaningless with kInf)
+    uint16_t mag;     // |q - lb|
+    uint8_t cls;
+    uint8_t nbl;      // bit length of the neighbours' mean magnitude
+    uint8_t flags;    // kFar | kInf | kNeg
+    static constexpr uint8_t kFar = 1, kInf = 2, kNeg = 4;
+    uint32_t code() const { return (flags & kNeg) ? uint32_t(lb) - mag : uint32_t(lb) + mag; }
+};
+
+/// The chunk's ErrorSymbols (spec §8.3: Inf bit, lattice bound, residual and
+/// neighbours' magnitude of every diamond, in class order).
+template <class T>
+void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c, int m,
+                          std::vector<ErrorSymbol>& out) {
+    out.clear();
+    if (c.diamonds == 0) return;
+    out.reserve(std::size_t(c.diamonds));
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     const ChunkFrame F(G, c.cycle, c.box);
-    rc::Encoder enc(out);
     const uint32_t qmax = max_error_code(m);
     // Cycle 0 inside the chunk: every grid point of the diamond's tets is a
     // vertex or the midpoint of one of their edges, all available, so the
@@ -206,11 +189,10 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
     // Row by row (the order of for_each_point_v2): along a row only x moves, by
     // 2h, so the field index and the lattice slot advance by constants and the
     // far-face, interior and deep-interior tests reduce to x ranges worked out
-    // once a row. Per diamond the same calls as a point-wise walk, in the same
-    // order, hence the same bytes (this loop was ~460 instructions a diamond).
+    // once a row.
     const LatticeView L = lat.view();
     for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
-        const int cls = r.cls;
+        const uint8_t cls = uint8_t(r.cls);
         // touches_far_face: from x = x0 on if y or z already touch, else past far_from.
         const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
         const ChunkFrame::XRange interior = F.interior_x(r.y, r.z), deep = F.deep_interior_x(r.y, r.z);
@@ -219,10 +201,10 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
         const int64_t ds = r.step >> c.cycle;
         int64_t s = lat.slot(r.x0, r.y, r.z);
         for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
-            const int far = x > far_from ? 1 : 0;
+            const uint8_t far = x > far_from ? ErrorSymbol::kFar : 0;
             const uint32_t q = quantize_error(e[std::size_t(idx)], m);
-            enc.encode(models->inf[cls][far], q == qmax);
             if (q == qmax) {
+                out.push_back(ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)});
                 L.set(s, 0);
                 continue;
             }
@@ -230,19 +212,62 @@ std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std:
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
                 const int nb = deep.contains(x) ? 0 : rc::bit_length(L.neighbour_mean(s));
-                code_int(enc, cls, q, nb, 0, false);
+                out.push_back(ErrorSymbol{uint16_t(q), 0, cls, uint8_t(nb), far});
                 L.set(s, 0);
                 continue;
             }
             const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
-            const uint64_t mag = uint64_t(delta < 0 ? -delta : delta);
-            code_int(enc, cls, lb, rc::bit_length(L.neighbour_mean(s)), mag, delta < 0);
+            const uint32_t mag = uint32_t(delta < 0 ? -delta : delta);
+            out.push_back(ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
+                                      uint8_t(far | (delta < 0 ? ErrorSymbol::kNeg : 0))});
             L.set(s, mag);
         }
     });
+}
+
+/// The error chunk's stream from its symbols. Exp: chunk mode 7 (§8.4), the
+/// exponent contexts; else mode 0 (§8.3).
+template <bool Exp = false>
+std::vector<std::byte> code_error_symbols(std::span<const ErrorSymbol> sym, int m) {
+    std::vector<std::byte> out;
+    if (sym.empty()) return out;
+    using Models = std::conditional_t<Exp, ErrorModelsExp, ErrorModels>;
+    auto models = std::make_unique<Models>();
+    int e0 = 0;
+    if constexpr (Exp) {
+        // The top kErrorBuckets-1 exponents of the chunk's finite codes get a
+        // bucket each (the bounds are at most the codes, nearly always).
+        uint32_t top = 0;
+        for (const ErrorSymbol& d : sym)
+            if (!(d.flags & ErrorSymbol::kInf)) top = std::max(top, d.code() >> m);
+        e0 = std::max(0, int(top) - (kErrorBuckets - 2));
+        out.push_back(std::byte(e0));
+    }
+    rc::Encoder enc(out);
+    for (const ErrorSymbol& d : sym) {
+        const bool inf = (d.flags & ErrorSymbol::kInf) != 0;
+        enc.encode(models->inf[d.cls][d.flags & ErrorSymbol::kFar], inf);
+        if (inf) continue;
+        const bool neg = (d.flags & ErrorSymbol::kNeg) != 0;
+        if constexpr (Exp) {
+            const int g = error_bucket(d.lb, m, e0);
+            rc::encode_short_int(enc, models->m[d.cls][g][std::min<int>(3, d.nbl)], models->mant[g], d.mag, neg);
+        } else {
+            rc::encode_int(enc, models->m[d.cls][d.lb != 0][std::min<int>(5, d.nbl)], d.mag, neg, 16);
+        }
+    }
     enc.finish();
     return out;
+}
+
+/// Exp: chunk mode 7 (§8.4), the exponent contexts; else mode 0 (§8.3).
+template <class T, bool Exp = false>
+std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std::span<const float> e,
+                                             const HtChunk& c, int m) {
+    thread_local std::vector<ErrorSymbol> sym;
+    gather_error_symbols(G, v, e, c, m, sym);
+    return code_error_symbols<Exp>(sym, m);
 }
 
 /// False on a malformed stream or a code out of range. Exp: mode 7 (§8.4).
