@@ -172,7 +172,9 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
                           std::vector<ErrorSymbol>& out) {
     out.clear();
     if (c.diamonds == 0) return;
-    out.reserve(std::size_t(c.diamonds));
+    out.resize(std::size_t(c.diamonds));  // one a diamond (the walk stops at the chunk's count)
+    ErrorSymbol* o = out.data();
+    ErrorSymbol* const end = o + out.size();
     thread_local std::vector<uint32_t> storage;
     ChunkLattice lat(c.cycle, c.box, storage);
     const ChunkFrame F(G, c.cycle, c.box);
@@ -201,10 +203,11 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
         const int64_t ds = r.step >> c.cycle;
         int64_t s = lat.slot(r.x0, r.y, r.z);
         for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+            if (o == end) return;  // never for a consistent chunk; no write past the array
             const uint8_t far = x > far_from ? ErrorSymbol::kFar : 0;
             const uint32_t q = quantize_error(e[std::size_t(idx)], m);
             if (q == qmax) {
-                out.push_back(ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)});
+                *o++ = (ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)});
                 L.set(s, 0);
                 continue;
             }
@@ -212,18 +215,19 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
                 const int nb = deep.contains(x) ? 0 : rc::bit_length(L.neighbour_mean(s));
-                out.push_back(ErrorSymbol{uint16_t(q), 0, cls, uint8_t(nb), far});
+                *o++ = (ErrorSymbol{uint16_t(q), 0, cls, uint8_t(nb), far});
                 L.set(s, 0);
                 continue;
             }
             const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
             const uint32_t mag = uint32_t(delta < 0 ? -delta : delta);
-            out.push_back(ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
+            *o++ = (ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
                                       uint8_t(far | (delta < 0 ? ErrorSymbol::kNeg : 0))});
             L.set(s, mag);
         }
     });
+    out.resize(std::size_t(o - out.data()));
 }
 
 /// The error chunk's stream from its symbols. Exp: chunk mode 7 (§8.4), the
