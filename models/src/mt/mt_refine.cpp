@@ -172,18 +172,37 @@ struct MtRefiner {
     std::vector<uint32_t> star, perm;
     std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> keys;
     // A star tet's face through s, as its other two corners a < b in one 64-bit key
-    // (a in the high half: the key order is the (a, b) order). Comparing std::arrays
-    // for equality went through memcmp, 8 % of extract's time.
-    struct FaceUse {
-        uint64_t ab;
-        uint8_t wside;
-        bool operator<(const FaceUse& o) const { return ab < o.ab || (ab == o.ab && wside < o.wside); }
-        std::array<uint32_t, 2> corners() const { return {uint32_t(ab >> 32), uint32_t(ab)}; }
-    };
+    // (a in the high half: the key order is the (a, b) order). Faces are matched in a
+    // small open-addressing table: sorting the star's ~75 faces to pair them up was
+    // 15 % of an extraction's time.
     static uint64_t face_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
-    std::vector<FaceUse> faces;
+    struct FaceSlot {
+        uint64_t ab = 0;
+        uint8_t uses = 0;   // 0: empty; 1 or 2 star tets (3+: not a manifold)
+        uint8_t wside = 0;  // the first tet's side
+        uint8_t mixed = 0;  // two tets on different sides
+    };
+    std::vector<FaceSlot> face_table;  // size a power of two, at least twice the faces
+    std::vector<uint32_t> face_used;   // slots filled, in insertion order
+    void add_face(uint64_t ab, uint8_t wside) {
+        const size_t mask = face_table.size() - 1;
+        for (size_t i = size_t((ab * 0x9E3779B97F4A7C15ull) >> 40) & mask;; i = (i + 1) & mask) {
+            FaceSlot& f = face_table[i];
+            if (f.uses == 0) {
+                f = FaceSlot{ab, 1, wside, 0};
+                face_used.push_back(uint32_t(i));
+                return;
+            }
+            if (f.ab == ab) {
+                if (++f.uses > 2) corrupt("non-manifold star");
+                f.mixed = f.wside != wside;
+                return;
+            }
+        }
+    }
     std::vector<uint8_t> side;                         // per star tet: goes to w
     std::vector<std::array<uint32_t, 2>> edge_tets;  // (a, b) of each new tet (s, w, a, b)
+    std::vector<uint64_t> edge_keys;
     std::vector<uint32_t> touched;
 
     void split(uint32_t sv) {
@@ -200,31 +219,34 @@ struct MtRefiner {
         side.assign(star.size(), 0);
         const uint64_t mask = m.mask_offset(k);
         for (uint32_t r = 0; r < perm.size(); ++r) side[perm[r]] = m.mask_bit(mask + r) ? 1 : 0;
-        faces.clear();
+        size_t capacity = 64;
+        while (capacity < 6 * star.size()) capacity *= 2;
+        if (face_table.size() < capacity) face_table.assign(capacity, FaceSlot{});
+        face_used.clear();
         for (size_t i = 0; i < star.size(); ++i) {
             std::array<uint32_t, 3> o{};
             int c = 0;
             for (int j = 0; j < 4; ++j)
                 if (tv[star[i]][j] != s) o[c++] = tv[star[i]][j];
             std::sort(o.begin(), o.end());
-            faces.push_back({face_key(o[0], o[1]), side[i]});
-            faces.push_back({face_key(o[0], o[2]), side[i]});
-            faces.push_back({face_key(o[1], o[2]), side[i]});
+            add_face(face_key(o[0], o[1]), side[i]);
+            add_face(face_key(o[0], o[2]), side[i]);
+            add_face(face_key(o[1], o[2]), side[i]);
         }
-        std::sort(faces.begin(), faces.end());
+        // New tets (s, w, a, b): on faces shared by the two sides, and on boundary faces
+        // of w's side unless flat; in (a, b) order (the order of the tets created).
+        edge_keys.clear();
+        for (const uint32_t i : face_used) {
+            FaceSlot& f = face_table[i];
+            const uint64_t ab = f.ab;
+            if (f.uses == 2 ? f.mixed != 0
+                            : f.wside && mt::orient(ps, grid.coord(uint32_t(ab >> 32)), grid.coord(uint32_t(ab)), pw) != 0)
+                edge_keys.push_back(ab);
+            f = FaceSlot{};
+        }
+        std::sort(edge_keys.begin(), edge_keys.end());
         edge_tets.clear();
-        for (size_t i = 0; i < faces.size();) {
-            size_t j = i;
-            while (j < faces.size() && faces[j].ab == faces[i].ab) ++j;
-            if (j - i > 2) corrupt("non-manifold star");
-            if (j - i == 2) {
-                if (faces[i].wside != faces[i + 1].wside) edge_tets.push_back(faces[i].corners());
-            } else if (faces[i].wside) {
-                const auto ab = faces[i].corners();
-                if (mt::orient(ps, grid.coord(ab[0]), grid.coord(ab[1]), pw) != 0) edge_tets.push_back(ab);
-            }
-            i = j;
-        }
+        for (const uint64_t ab : edge_keys) edge_tets.push_back({uint32_t(ab >> 32), uint32_t(ab)});
         // Rewire: w-side tets move to w; chains of s and w are rebuilt.
         const uint32_t wv = add_vertex(w);
         verts[sv].head = kNil;
@@ -294,6 +316,9 @@ struct MtRefiner {
             bool blocked = false;
             for (uint32_t c = verts[p].head; c != kNil; c = tnext[c]) {
                 const uint32_t t = c >> 2;
+                // The split reads the tet's grid indices next (star_order): ask for them
+                // now, so their misses overlap the walk's instead of following it.
+                __builtin_prefetch(&tv[t]);
                 star.push_back(t);
                 const uint32_t cr = creator(ts[t]);
                 if (cr != p) {
