@@ -72,6 +72,10 @@ struct MtRefiner {
     std::vector<std::array<uint32_t, 4>> tv;   // tets, grid indices (geometry, star order)
     std::vector<std::array<uint32_t, 4>> ts;   // the same tets, vertex slots (state)
     std::vector<uint32_t> tnext;               // per corner: next corner of the same vertex
+    // Per tet, its creator (kNil: a reference tet). Only a split changes labels, of its
+    // two vertices, and check() runs on every tet around them: so the cache is kept by
+    // check(). Reading it spares the star walk a tet's slots and four vertex records.
+    std::vector<uint32_t> tcreator;
     // (label, grid index, slot): ties between equal labels break by grid index.
     std::priority_queue<std::array<uint32_t, 3>> heap;
     MtExtractStats st;
@@ -96,11 +100,6 @@ struct MtRefiner {
         set_node(v, updates_of(g));
         return v;
     }
-    uint32_t present(uint32_t g) const {
-        const uint32_t v = slot_of.find(g);
-        if (v == mt::SlotMap::kAbsent) corrupt("a tet corner is not a vertex");
-        return v;
-    }
     void link_corner(uint32_t v, uint32_t c) {
         tnext[c] = verts[v].head;
         verts[v].head = c;
@@ -111,6 +110,7 @@ struct MtRefiner {
         tv.push_back(t);
         ts.push_back(slots);
         tnext.insert(tnext.end(), 4, kNil);
+        tcreator.push_back(kNil);  // set by check()
         return id;
     }
     std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
@@ -161,6 +161,7 @@ struct MtRefiner {
     void check(uint32_t t) {
         ++st.visited_tets;
         const uint32_t c = creator(ts[t]);
+        tcreator[t] = c;
         if (c == kNil) return;
         const double err = m.splits_[current_update(c)].error;
         if (err > bound(tv[t], err)) {
@@ -178,18 +179,19 @@ struct MtRefiner {
     static uint64_t face_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
     struct FaceSlot {
         uint64_t ab = 0;
+        std::array<uint32_t, 2> slots{};  // the vertex slots of a and b
         uint8_t uses = 0;   // 0: empty; 1 or 2 star tets (3+: not a manifold)
         uint8_t wside = 0;  // the first tet's side
         uint8_t mixed = 0;  // two tets on different sides
     };
     std::vector<FaceSlot> face_table;  // size a power of two, at least twice the faces
     std::vector<uint32_t> face_used;   // slots filled, in insertion order
-    void add_face(uint64_t ab, uint8_t wside) {
+    void add_face(uint64_t ab, uint32_t sa, uint32_t sb, uint8_t wside) {
         const size_t mask = face_table.size() - 1;
         for (size_t i = size_t((ab * 0x9E3779B97F4A7C15ull) >> 40) & mask;; i = (i + 1) & mask) {
             FaceSlot& f = face_table[i];
             if (f.uses == 0) {
-                f = FaceSlot{ab, 1, wside, 0};
+                f = FaceSlot{ab, {sa, sb}, 1, wside, 0};
                 face_used.push_back(uint32_t(i));
                 return;
             }
@@ -201,8 +203,11 @@ struct MtRefiner {
         }
     }
     std::vector<uint8_t> side;                         // per star tet: goes to w
-    std::vector<std::array<uint32_t, 2>> edge_tets;  // (a, b) of each new tet (s, w, a, b)
-    std::vector<uint64_t> edge_keys;
+    struct EdgeTet {  // a new tet (s, w, a, b)
+        uint64_t ab;                      // face_key(a, b)
+        std::array<uint32_t, 2> slots;    // of a and b
+    };
+    std::vector<EdgeTet> edge_tets;
     std::vector<uint32_t> touched;
 
     void split(uint32_t sv) {
@@ -224,29 +229,31 @@ struct MtRefiner {
         if (face_table.size() < capacity) face_table.assign(capacity, FaceSlot{});
         face_used.clear();
         for (size_t i = 0; i < star.size(); ++i) {
-            std::array<uint32_t, 3> o{};
+            std::array<uint32_t, 3> o{}, os{};  // the corners other than s: grid indices, slots
             int c = 0;
             for (int j = 0; j < 4; ++j)
-                if (tv[star[i]][j] != s) o[c++] = tv[star[i]][j];
-            std::sort(o.begin(), o.end());
-            add_face(face_key(o[0], o[1]), side[i]);
-            add_face(face_key(o[0], o[2]), side[i]);
-            add_face(face_key(o[1], o[2]), side[i]);
+                if (tv[star[i]][j] != s) o[c] = tv[star[i]][j], os[c++] = ts[star[i]][j];
+            auto order = [&](int a, int b) {
+                if (o[a] > o[b]) std::swap(o[a], o[b]), std::swap(os[a], os[b]);
+            };
+            order(0, 1), order(1, 2), order(0, 1);
+            add_face(face_key(o[0], o[1]), os[0], os[1], side[i]);
+            add_face(face_key(o[0], o[2]), os[0], os[2], side[i]);
+            add_face(face_key(o[1], o[2]), os[1], os[2], side[i]);
         }
         // New tets (s, w, a, b): on faces shared by the two sides, and on boundary faces
         // of w's side unless flat; in (a, b) order (the order of the tets created).
-        edge_keys.clear();
+        edge_tets.clear();
         for (const uint32_t i : face_used) {
             FaceSlot& f = face_table[i];
             const uint64_t ab = f.ab;
             if (f.uses == 2 ? f.mixed != 0
                             : f.wside && mt::orient(ps, grid.coord(uint32_t(ab >> 32)), grid.coord(uint32_t(ab)), pw) != 0)
-                edge_keys.push_back(ab);
+                edge_tets.push_back({ab, f.slots});
             f = FaceSlot{};
         }
-        std::sort(edge_keys.begin(), edge_keys.end());
-        edge_tets.clear();
-        for (const uint64_t ab : edge_keys) edge_tets.push_back({uint32_t(ab >> 32), uint32_t(ab)});
+        std::sort(edge_tets.begin(), edge_tets.end(),
+                  [](const EdgeTet& x, const EdgeTet& y) { return x.ab < y.ab; });
         // Rewire: w-side tets move to w; chains of s and w are rebuilt.
         const uint32_t wv = add_vertex(w);
         verts[sv].head = kNil;
@@ -266,10 +273,11 @@ struct MtRefiner {
             }
             touched.push_back(t);
         }
-        for (const auto& ab : edge_tets) {
-            std::array<uint32_t, 4> t{s, w, ab[0], ab[1]};
-            std::array<uint32_t, 4> slots{sv, wv, present(ab[0]), present(ab[1])};
-            const int64_t o = mt::orient(ps, pw, grid.coord(ab[0]), grid.coord(ab[1]));
+        for (const EdgeTet& e : edge_tets) {
+            const uint32_t a = uint32_t(e.ab >> 32), b = uint32_t(e.ab);
+            std::array<uint32_t, 4> t{s, w, a, b};
+            std::array<uint32_t, 4> slots{sv, wv, e.slots[0], e.slots[1]};
+            const int64_t o = mt::orient(ps, pw, grid.coord(a), grid.coord(b));
             if (o == 0) corrupt("flat edge tet");
             if (o < 0) std::swap(t[2], t[3]), std::swap(slots[2], slots[3]);
             const uint32_t id = new_tet(t, slots);
@@ -290,6 +298,7 @@ struct MtRefiner {
         tv = m.base_;
         ts.resize(tv.size());
         tnext.assign(4 * tv.size(), kNil);
+        tcreator.assign(tv.size(), kNil);
         for (uint32_t t = 0; t < tv.size(); ++t)
             for (int j = 0; j < 4; ++j) {
                 const uint32_t g = tv[t][j];
@@ -320,7 +329,7 @@ struct MtRefiner {
                 // now, so their misses overlap the walk's instead of following it.
                 __builtin_prefetch(&tv[t]);
                 star.push_back(t);
-                const uint32_t cr = creator(ts[t]);
+                const uint32_t cr = tcreator[t];
                 if (cr != p) {
                     if (cr == kNil || verts[cr].label <= lab) corrupt("blocked by a lower label");
                     want_split(cr);
