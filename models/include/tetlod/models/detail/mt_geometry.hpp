@@ -19,9 +19,12 @@ inline constexpr uint32_t kNil = 0xFFFFFFFFu;
 struct Grid {
     int64_t X = 0, Y = 0, Z = 0;
     explicit Grid(const Dims& d) : X(d.x), Y(d.y), Z(d.z) {}
+    /// In unsigned 32 bits (indices and dims are below 2^32): a 64-bit signed
+    /// division costs several times more, and an extraction's split asks for a
+    /// hundred coordinates.
     Pt coord(uint32_t i) const {
-        const int64_t x = i % X, r = i / X;
-        return {int32_t(x), int32_t(r % Y), int32_t(r / Y)};
+        const uint32_t x = i % uint32_t(X), r = i / uint32_t(X);
+        return {int32_t(x), int32_t(r % uint32_t(Y)), int32_t(r / uint32_t(Y))};
     }
     uint32_t index(int64_t x, int64_t y, int64_t z) const { return uint32_t((z * Y + y) * X + x); }
     /// Bit set of the box planes the point lies on (x=0, x=max, y=0, ...).
