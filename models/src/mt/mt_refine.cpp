@@ -164,6 +164,8 @@ struct MtRefiner {
         tcreator[t] = c;
         if (c == kNil) return;
         const double err = m.splits_[current_update(c)].error;
+        // Within both bounds the region does not matter: no box or value test (as the HT).
+        if (err <= bounds.min()) return;
         if (err > bound(tv[t], err)) {
             verts[c].wanted = verts[c].label;
             want_split(c);
