@@ -942,7 +942,7 @@ struct BrickDecimator {
     std::vector<std::array<float, 4>> new_face_err;
     std::vector<double> new_err;
     std::vector<uint8_t> new_exact;
-    std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> mask_keys;
+    std::vector<mt::StarKey> mask_keys;
 
     MtHistory::Tet node_tet(const std::array<uint32_t, 4>& t) const {
         return {nodes.node[global(t[0])], nodes.node[global(t[1])], nodes.node[global(t[2])], nodes.node[global(t[3])]};

@@ -173,7 +173,7 @@ struct MtRefiner {
     }
 
     std::vector<uint32_t> star, perm;
-    std::vector<std::pair<int64_t, std::array<uint32_t, 3>>> keys;
+    std::vector<mt::StarKey> keys;
     // A star tet's face through s, as its other two corners a < b in one 64-bit key
     // (a in the high half: the key order is the (a, b) order). Faces are matched in a
     // small open-addressing table: sorting the star's ~75 faces to pair them up was
