@@ -72,10 +72,6 @@ struct MtRefiner {
     std::vector<std::array<uint32_t, 4>> tv;   // tets, grid indices (geometry, star order)
     std::vector<std::array<uint32_t, 4>> ts;   // the same tets, vertex slots (state)
     std::vector<uint32_t> tnext;               // per corner: next corner of the same vertex
-    // Per tet, its creator (kNil: a reference tet). Only a split changes labels, of its
-    // two vertices, and check() runs on every tet around them: so the cache is kept by
-    // check(). Reading it spares the star walk a tet's slots and four vertex records.
-    std::vector<uint32_t> tcreator;
     // (label, grid index, slot): ties between equal labels break by grid index.
     std::priority_queue<std::array<uint32_t, 3>> heap;
     MtExtractStats st;
@@ -110,7 +106,7 @@ struct MtRefiner {
         tv.push_back(t);
         ts.push_back(slots);
         tnext.insert(tnext.end(), 4, kNil);
-        tcreator.push_back(kNil);  // set by check()
+
         return id;
     }
     std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
@@ -161,7 +157,6 @@ struct MtRefiner {
     void check(uint32_t t) {
         ++st.visited_tets;
         const uint32_t c = creator(ts[t]);
-        tcreator[t] = c;
         if (c == kNil) return;
         const double err = m.splits_[current_update(c)].error;
         // Within both bounds the region does not matter: no box or value test (as the HT).
@@ -300,7 +295,7 @@ struct MtRefiner {
         tv = m.base_;
         ts.resize(tv.size());
         tnext.assign(4 * tv.size(), kNil);
-        tcreator.assign(tv.size(), kNil);
+
         for (uint32_t t = 0; t < tv.size(); ++t)
             for (int j = 0; j < 4; ++j) {
                 const uint32_t g = tv[t][j];
@@ -331,7 +326,7 @@ struct MtRefiner {
                 // now, so their misses overlap the walk's instead of following it.
                 __builtin_prefetch(&tv[t]);
                 star.push_back(t);
-                const uint32_t cr = tcreator[t];
+                const uint32_t cr = creator(ts[t]);
                 if (cr != p) {
                     if (cr == kNil || verts[cr].label <= lab) corrupt("blocked by a lower label");
                     want_split(cr);
