@@ -1,6 +1,8 @@
 #include "tetlod/core/volume.hpp"
 
+#include <algorithm>
 #include <cstring>
+#include <type_traits>
 
 #include <cmath>
 #include <limits>
@@ -74,6 +76,14 @@ std::array<double, 2> Volume::range() const {
         using T = decltype(t);
         const T* p = as<T>();
         const int64_t n = count();
+        if constexpr (std::is_integral_v<T>) {
+            // In the type itself, so that the loop vectorizes (a conversion to
+            // double per sample did not): several passes of a conversion call it.
+            if (n == 0) return std::array<double, 2>{0.0, 0.0};
+            T tlo = p[0], thi = p[0];
+            for (int64_t i = 1; i < n; ++i) tlo = std::min(tlo, p[i]), thi = std::max(thi, p[i]);
+            return std::array<double, 2>{static_cast<double>(tlo), static_cast<double>(thi)};
+        }
         double lo = std::numeric_limits<double>::infinity();
         double hi = -lo;
         for (int64_t i = 0; i < n; ++i) {
