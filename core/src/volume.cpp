@@ -1,11 +1,10 @@
 #include "tetlod/core/volume.hpp"
 
 #include <algorithm>
-#include <cstring>
-#include <type_traits>
-
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "tetlod/core/error.hpp"
 

@@ -207,7 +207,7 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
             const uint8_t far = x > far_from ? ErrorSymbol::kFar : 0;
             const uint32_t q = quantize_error(e[std::size_t(idx)], m);
             if (q == qmax) {
-                *o++ = (ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)});
+                *o++ = ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)};
                 L.set(s, 0);
                 continue;
             }
@@ -215,15 +215,15 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
                 const int nb = deep.contains(x) ? 0 : rc::bit_length(L.neighbour_mean(s));
-                *o++ = (ErrorSymbol{uint16_t(q), 0, cls, uint8_t(nb), far});
+                *o++ = ErrorSymbol{uint16_t(q), 0, cls, uint8_t(nb), far};
                 L.set(s, 0);
                 continue;
             }
             const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
             const uint32_t mag = uint32_t(delta < 0 ? -delta : delta);
-            *o++ = (ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
-                                      uint8_t(far | (delta < 0 ? ErrorSymbol::kNeg : 0))});
+            *o++ = ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
+                               uint8_t(far | (delta < 0 ? ErrorSymbol::kNeg : 0))};
             L.set(s, mag);
         }
     });
@@ -263,15 +263,6 @@ std::vector<std::byte> code_error_symbols(std::span<const ErrorSymbol> sym, int 
     }
     enc.finish();
     return out;
-}
-
-/// Exp: chunk mode 7 (§8.4), the exponent contexts; else mode 0 (§8.3).
-template <class T, bool Exp = false>
-std::vector<std::byte> encode_error_chunk_v2(const Geometry& G, const T* v, std::span<const float> e,
-                                             const HtChunk& c, int m) {
-    thread_local std::vector<ErrorSymbol> sym;
-    gather_error_symbols(G, v, e, c, m, sym);
-    return code_error_symbols<Exp>(sym, m);
 }
 
 /// False on a malformed stream or a code out of range. Exp: mode 7 (§8.4).

@@ -106,7 +106,6 @@ struct MtRefiner {
         tv.push_back(t);
         ts.push_back(slots);
         tnext.insert(tnext.end(), 4, kNil);
-
         return id;
     }
     std::array<Pt, 4> pts_of(const std::array<uint32_t, 4>& t) const {
@@ -295,7 +294,6 @@ struct MtRefiner {
         tv = m.base_;
         ts.resize(tv.size());
         tnext.assign(4 * tv.size(), kNil);
-
         for (uint32_t t = 0; t < tv.size(); ++t)
             for (int j = 0; j < 4; ++j) {
                 const uint32_t g = tv[t][j];
