@@ -65,12 +65,11 @@ void print_stats(const char* what, const mt::BrickResult::Stats& s) {
     std::fprintf(stderr,
                  "mt build: %s: %llu collapses (%llu reusing their evaluation), %llu evaluations (%.2f per "
                  "collapse, %llu + %llu skipped, %.1f%% cut at the link), %.1f star tets, %.1f targets ranked, %.2f tried, "
-                 "%.1f points gathered, %.1f located per evaluation, %llu point walks on several threads (%llu of them target walks)\n",
+                 "%.1f points gathered, %.1f located per evaluation, %llu target walks on several threads, %llu compactions of the point blocks\n",
                  what, (unsigned long long)s.commits, (unsigned long long)s.commits_reused,
                  (unsigned long long)s.evaluations, double(s.evaluations) / c, (unsigned long long)s.skipped, (unsigned long long)s.repeated, 100.0 * double(s.cut_at_link) / e,
                  double(s.star_tets) / e, double(s.ranked) / e, double(s.tried) / e, double(s.gathered) / e,
-                 double(s.located) / e, (unsigned long long)s.parallel_walks,
-                 (unsigned long long)s.parallel_targets);
+                 double(s.located) / e, (unsigned long long)s.parallel_walks, (unsigned long long)s.compactions);
 }
 
 /// Error cap of pass `pass` of `passes` (never the last, which has none): `top` of the

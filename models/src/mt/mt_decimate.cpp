@@ -85,8 +85,9 @@ struct BrickDecimator {
     // How a point record holds its sample: 32 bits are enough for every type but f64,
     // whose samples are read from the volume instead.
     enum class ValueSlot : uint8_t { Signed32, Unsigned32, Float32, InVolume } slot = ValueSlot::Signed32;
-    // What the evaluation reads about a point, in a quarter of a cache line: walking a
-    // star's points costs one miss per point instead of one per array.
+    // What the evaluation reads about a point, in 12 bytes: walking a star's points
+    // costs one miss per point instead of one per array, and a tet's owned points are
+    // one block of records (owned_begin), walked in address order.
     struct PointRec {
         std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (MtModel::build allows 4096 per axis)
         uint8_t planes = 0;  // planes of the volume's box the point lies on
@@ -96,11 +97,17 @@ struct BrickDecimator {
         uint8_t in_link : 1 = 0;    // set only while link_ok holds Lk(w): a vertex of it
         uint8_t no_target : 1 = 0;  // a vertex whose evaluation found no target (no_target_from)
         uint8_t same_best : 1 = 0;  // a vertex whose exact live entry is what an evaluation finds (run's loop)
-        uint32_t next = kNil;  // owned point list link
-        uint32_t value = 0;    // the sample's bits (see ValueSlot)
+        uint32_t value = 0;  // the sample's bits (see ValueSlot)
     };
-    static_assert(sizeof(PointRec) == 16);
+    static_assert(sizeof(PointRec) == 12);
+    // Vertices first (ids below `vertices`, never moved), then the removed points as
+    // copies, one block per tet that owns some, in the tet's list order. A collapse
+    // writes its new tets' blocks at the end and leaves the old ones as garbage, which
+    // compact_owned() squeezes out once it outweighs the live blocks. Until session 28
+    // the lists were linked through the records: gathering a star's points was then a
+    // chain of dependent misses, 30 % of the last pass (one brick, one thread).
     HugePageVector<PointRec> point;
+    size_t owned_live = 0, owned_garbage = 0;  // records in live blocks, in dead ones
     // The vertices of the input among the box's points (raster order), and the count of
     // them before each 64-bit word: a box point's vertex id in O(1).
     std::vector<uint64_t> vertex_bits;
@@ -112,8 +119,8 @@ struct BrickDecimator {
         std::array<uint32_t, 4> next{kNil, kNil, kNil, kNil};  // corner chains
         std::array<float, 4> ferr{0, 0, 0, 0};               // closed error of the face opposite each corner
         float err = 0;                                       // closed error
-        uint32_t head = kNil;                                // owned point list
-        uint32_t owned = 0;                                  // its length
+        uint32_t head = kNil;                                // first record of its owned points' block
+        uint32_t owned = 0;                                  // their count
         // Removed by a collapse (in the record's padding: a list of the removed tets
         // took up to 8 B per tet with its doubling, the brick's largest array after
         // the tets and their back links).
@@ -363,6 +370,9 @@ struct BrickDecimator {
             vertices_before[i] = vertices;
             vertices += uint32_t(__builtin_popcountll(vertex_bits[i]));
         }
+        // Room for every point removed by the end (the input's and the vertices'), twice,
+        // as compact_owned() allows: the array never moves (a reservation is not resident).
+        point.reserve(size_t(vertices) + 2 * (size_t(vertices) + owned) + kMinGarbage + 64);
         point.assign(size_t(vertices) + owned, PointRec{});
         for (size_t i = 0; i < vertex_bits.size(); ++i)
             for (uint64_t word = vertex_bits[i]; word != 0; word &= word - 1) {
@@ -385,22 +395,16 @@ struct BrickDecimator {
                     rec.err = t.err;
                     rec.ferr = t.face_err;
                     // Keep each point list in its order (the evaluation's early exits see it).
-                    uint32_t head = kNil, *tail = &head;
-                    for (uint32_t k = 0; k < t.points; ++k) {
-                        const uint32_t p = next_owned++;
-                        set_point(p, local(in.point()));
-                        *tail = p;
-                        tail = &point[p].next;
-                    }
-                    *tail = kNil;
-                    rec.head = head;
+                    rec.head = t.points > 0 ? next_owned : kNil;
                     rec.owned = t.points;
+                    for (uint32_t k = 0; k < t.points; ++k) set_point(next_owned++, local(in.point()));
                     tets.push_back(rec);
                 }
             // The children's meshes now live in `tets`: free them before the brick's own
             // arrays grow, so a pass never holds a mesh twice.
             for (BrickMesh* b : input) *b = BrickMesh{};
         }
+        owned_live = owned;
         const size_t m = tets.size();
         prev_corner.assign(4 * m, kNil);
         vhead.assign(vertices, kNil);
@@ -651,81 +655,22 @@ struct BrickDecimator {
         return -1;
     }
 
-    /// gather_points on the arena's threads (parallel_points), when the star owns at
-    /// least kParallelPoints: each star tet's chain goes to its place in `pts`, known from
-    /// the lengths (TetRec::owned), so the order is the sequential one. A thread walks its
-    /// tets' chains a step at a time, overlapping their cache misses as below.
-    bool gather_points_in_parallel(uint32_t w) {
-        chain_at.resize(star_w.size() + 1);
+    /// pts: w, then each star tet's owned points in its list order (pfrom: the star
+    /// tet). The blocks lie anywhere in `point`: their first lines are asked for before
+    /// the copy, and the hardware prefetcher follows each block.
+    void gather_points(uint32_t w) {
         size_t total = 1;
-        for (size_t i = 0; i < star_w.size(); ++i) chain_at[i] = uint32_t(total), total += tets[star_w[i]].owned;
-        chain_at[star_w.size()] = uint32_t(total);
-        if (total < kParallelPoints) return false;
-        ++st.parallel_walks;
+        for (const uint32_t t : star_w) {
+            const TetRec& r = tets[t];
+            if (r.owned > 0) __builtin_prefetch(&point[r.head]), total += r.owned;
+        }
         pts.resize(total), pfrom.resize(total);
         pts[0] = w, pfrom[0] = kNil;
-        std::atomic<bool> lengths_ok{true};
-        tbb::parallel_for(
-            tbb::blocked_range<size_t>(0, star_w.size(), std::max<size_t>(1, star_w.size() / 8)),
-            [&](const tbb::blocked_range<size_t>& r) {
-                constexpr size_t kMaxChains = 64;
-                std::array<uint32_t, kMaxChains> at, slot, tet;  // per live chain: point, its place, star tet
-                for (size_t first = r.begin(); first < r.end(); first += kMaxChains) {
-                    const size_t last = std::min(r.end(), first + kMaxChains);
-                    size_t live = 0;
-                    for (size_t i = first; i < last; ++i) {
-                        const uint32_t head = tets[star_w[i]].head;
-                        if (head != kNil) at[live] = head, slot[live] = chain_at[i], tet[live++] = uint32_t(i);
-                        else if (chain_at[i] != chain_at[i + 1]) lengths_ok = false;
-                    }
-                    while (live > 0) {
-                        size_t still = 0;
-                        for (size_t k = 0; k < live; ++k) {
-                            const uint32_t p = at[k], at_slot = slot[k], i = tet[k];
-                            if (at_slot >= chain_at[i + 1]) {  // longer than its count: never written past
-                                lengths_ok = false;
-                                continue;
-                            }
-                            pts[at_slot] = p, pfrom[at_slot] = i;
-                            const uint32_t next = point[p].next;
-                            if (next != kNil) {
-                                __builtin_prefetch(&point[next]);
-                                at[still] = next, slot[still] = at_slot + 1, tet[still++] = i;
-                            } else if (at_slot + 1 != chain_at[i + 1]) {
-                                lengths_ok = false;
-                            }
-                        }
-                        live = still;
-                    }
-                }
-            },
-            tbb::simple_partitioner());
-        if (!lengths_ok) throw Error(ErrorCode::CorruptData, "mt build: internal error (point list length)");
-        return true;
-    }
-
-    void gather_points(uint32_t w) {
-        if (parallel_points() && gather_points_in_parallel(w)) return;
-        // The owned point lists are chains of dependent loads, one cache miss per point
-        // in the last passes. Walking all the star's chains a step at a time, only to
-        // prefetch, overlaps the misses of different tets; the walk below, in the order
-        // the evaluation needs, then finds the records in cache.
-        chain_at.resize(star_w.size());
-        size_t live = 0;
-        for (size_t i = 0; i < star_w.size(); ++i)
-            if ((chain_at[i] = tets[star_w[i]].head) != kNil) chain_at[live++] = chain_at[i];
-        while (live > 0) {
-            size_t still = 0;
-            for (size_t i = 0; i < live; ++i) {
-                const uint32_t p = point[chain_at[i]].next;
-                if (p != kNil) __builtin_prefetch(&point[p]), chain_at[still++] = p;
-            }
-            live = still;
+        size_t at = 1;
+        for (size_t i = 0; i < star_w.size(); ++i) {
+            const TetRec& r = tets[star_w[i]];
+            for (uint32_t k = 0; k < r.owned; ++k, ++at) pts[at] = r.head + k, pfrom[at] = uint32_t(i);
         }
-        pts.clear(), pfrom.clear();
-        pts.push_back(w), pfrom.push_back(kNil);
-        for (size_t i = 0; i < star_w.size(); ++i)
-            for (uint32_t p = tets[star_w[i]].head; p != kNil; p = point[p].next) pts.push_back(p), pfrom.push_back(uint32_t(i));
     }
 
     /// Best target of w by (cost, shape ratio, id); with check_link, the best one that
@@ -753,7 +698,7 @@ struct BrickDecimator {
     /// (located[] is read only when the walk got through every point).
     template <class OverLimit>
     void walk_points_in_parallel(size_t from, const OverLimit& over_limit, double& cost, bool& ok, bool& over) {
-        ++st.parallel_walks, ++st.parallel_targets;
+        ++st.parallel_walks;
         for (size_t j = 0; j < ntv.size(); ++j) bary(j);  // every numerator now: the walk only reads
         point_dev.resize(pts.size());
         std::atomic<size_t> first_end{pts.size()};
@@ -948,6 +893,57 @@ struct BrickDecimator {
         return {nodes.node[global(t[0])], nodes.node[global(t[1])], nodes.node[global(t[2])], nodes.node[global(t[3])]};
     }
 
+    // ---- owned point blocks ----------------------------------------------------
+    std::vector<uint32_t> block_fill;  // per new tet: its block's size, start, fill
+    std::vector<uint64_t> block_order;
+    static constexpr size_t kMinGarbage = size_t(1) << 14;  // records; fewer are never squeezed
+    void drop_owned(uint32_t t) {
+        owned_live -= tets[t].owned, owned_garbage += tets[t].owned;
+        tets[t].head = kNil;
+        tets[t].owned = 0;
+    }
+    /// The relocated points (pts, their new tets in `located`) as one block per new tet
+    /// at the end of `point`, each in reverse pts order: the order in which pushing
+    /// them on the front of linked lists left them (the order, and so every later
+    /// evaluation's early exits and the output bytes, are as before the blocks).
+    void write_owned_blocks() {
+        block_fill.assign(ntv.size() + 1, 0);
+        for (size_t i = 0; i < pts.size(); ++i) ++block_fill[size_t(located[i]) + 1];
+        const size_t base = point.size();
+        for (size_t j = 0; j < ntv.size(); ++j) {
+            const uint32_t t = newid[j], n = block_fill[j + 1];
+            tets[t].head = n > 0 ? uint32_t(base + block_fill[j]) : kNil;
+            tets[t].owned = n;
+            block_fill[j + 1] += block_fill[j];  // now the block's start, then its fill
+        }
+        point.resize(base + pts.size());
+        for (size_t i = pts.size(); i-- > 0;) {
+            PointRec& r = point[base + block_fill[size_t(located[i])]++];
+            r = point[pts[i]];
+            r.alive = 0;  // a copy of w's vertex record is no vertex
+        }
+        owned_live += pts.size();
+    }
+    /// Squeezes the dead blocks out of `point` (blocks slide down in address order):
+    /// commit calls it once they outweigh the live ones, so the array stays within
+    /// twice its live size.
+    void compact_owned() {
+        ++st.compactions;
+        block_order.clear();
+        for (uint32_t t = 0; t < tets.size(); ++t)
+            if (tets[t].owned > 0) block_order.push_back(uint64_t(tets[t].head) << 32 | t);
+        std::sort(block_order.begin(), block_order.end());
+        size_t at = vertices;
+        for (const uint64_t key : block_order) {
+            TetRec& r = tets[uint32_t(key)];
+            std::copy(point.begin() + r.head, point.begin() + r.head + r.owned, point.begin() + ptrdiff_t(at));
+            r.head = uint32_t(at);
+            at += r.owned;
+        }
+        point.resize(at);
+        owned_garbage = 0;
+    }
+
     void commit(uint32_t w, uint32_t s) {
         // Most collapses are committed right after the evaluation that chose them (its
         // entry is the heap's next): w's star is then the one evaluated (same stamp), and
@@ -959,6 +955,14 @@ struct BrickDecimator {
             ++st.commits_reused;
         } else {
             gather_star(w, star_w);
+            gather_points(w);
+        }
+        // The new blocks go at the end of `point`: squeeze the dead ones out first when
+        // they outweigh the live ones or the new ones would not fit (the last collapses
+        // move up to all the points: growing the array would hold it twice). Blocks keep
+        // their order inside, so the points gathered again are the same sequence.
+        if (owned_garbage > std::max<size_t>(owned_live, kMinGarbage) || point.size() + pts.size() > point.capacity()) {
+            compact_owned();
             gather_points(w);
         }
         MtHistory* hist = opt.record_history ? &out.history : nullptr;
@@ -1009,8 +1013,7 @@ struct BrickDecimator {
             if (old2new[i] >= 0) continue;
             for (int j = 0; j < 4; ++j)
                 if (tets[t].v[j] != w) unlink_corner(tets[t].v[j], 4 * t + j);
-            tets[t].head = kNil;
-            tets[t].owned = 0;
+            drop_owned(t);
             tets[t].dead = true;
         }
         newid.assign(ntv.size(), 0);
@@ -1020,8 +1023,7 @@ struct BrickDecimator {
             const int sw = slot_of(tets[t].v, w);
             tets[t].v[sw] = s;
             link_corner(s, 4 * t + sw);
-            tets[t].head = kNil;
-            tets[t].owned = 0;
+            drop_owned(t);
             newid[old2new[i]] = t;
         }
         vhead[w] = kNil;
@@ -1036,6 +1038,7 @@ struct BrickDecimator {
                 if (dd[k] == 0) nf[jj][k] = std::max(nf[jj][k], fd);
         };
         std::array<int64_t, 4> d;
+        located.resize(pts.size());  // scratch again (a reused evaluation's answer is best_located)
         for (size_t i = 0; i < pts.size(); ++i) {
             const uint32_t p = pts[i];
             // The evaluation's answer is the first tet holding p (guess first): tried first,
@@ -1043,9 +1046,7 @@ struct BrickDecimator {
             const int guess = reuse ? best_located[i] : pfrom[i] == kNil ? -1 : old2new[pfrom[i]];
             const int j = locate(p, guess, d);
             if (j < 0) throw Error(ErrorCode::CorruptData, "mt build: internal error (point lost)");
-            point[p].next = tets[newid[j]].head;
-            tets[newid[j]].head = p;
-            ++tets[newid[j]].owned;
+            located[i] = j;
             const Sample x = sample(p);
             account(x, j, d);
             if (d[0] == 0 || d[1] == 0 || d[2] == 0 || d[3] == 0) {
@@ -1055,6 +1056,7 @@ struct BrickDecimator {
                     if (int(k) != j && bary(k).locate(cp, d2)) account(x, int(k), d2);
             }
         }
+        write_owned_blocks();
         // A removed point on an edge of a new tet can be owned by a tet outside the star
         // that shares only that edge: it is then neither relocated here nor on a face
         // whose error is inherited. Its deviation is the same in every tet around the
@@ -1215,7 +1217,7 @@ struct BrickDecimator {
             h.err = tets[t].err;
             h.face_err = tets[t].ferr;
             owned.clear();
-            for (uint32_t p = tets[t].head; p != kNil; p = point[p].next) owned.push_back(global(p));
+            for (uint32_t k = 0; k < tets[t].owned; ++k) owned.push_back(global(tets[t].head + k));
             h.points = uint32_t(owned.size());
         };
         {  // exact size: the brick's arrays are still alive, so no growth slack on top
@@ -1243,10 +1245,11 @@ size_t brick_working_bytes(const BrickBox& box, const std::vector<BrickMesh*>& i
         for (const BrickMesh* b : input) tets += b->tets, owned += b->points;
         vertices = tets / 4;  // about 5-6 tets per vertex in a decimated mesh; a margin
     }
-    // Per tet: its record and back links; per point its record; per vertex its state
+    // Per tet: its record and back links; per point its record, and a copy in a block for
+    // every point removed (twice, with the dead blocks); per vertex its state
     // (first corner, stamp, heap sequence, no-target cutoff) and a heap entry; per box
     // point a bit.
-    return tets * (sizeof(D::TetRec) + 4 * sizeof(uint32_t)) + (vertices + owned) * sizeof(D::PointRec) +
+    return tets * (sizeof(D::TetRec) + 4 * sizeof(uint32_t)) + (vertices + 2 * (vertices + owned)) * sizeof(D::PointRec) +
            vertices * (3 * sizeof(uint32_t) + sizeof(float) + sizeof(Entry)) + box_points / 8 + box_points / 16;
 }
 

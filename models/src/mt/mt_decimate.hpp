@@ -61,13 +61,13 @@ struct BrickResult {
         uint64_t located = 0;         // points located in a target's new tets
         uint64_t commits = 0;
         uint64_t commits_reused = 0;  // commits that reused their evaluation's located points
-        uint64_t parallel_walks = 0;    // gathers and target walks of points run on several threads
-        uint64_t parallel_targets = 0;  // of them, target walks (past kSequentialPoints on one thread)
+        uint64_t parallel_walks = 0;  // target walks of points run on several threads (past kSequentialPoints)
+        uint64_t compactions = 0;     // squeezes of the dead owned-point blocks
         void add(const Stats& o) {
             evaluations += o.evaluations, skipped += o.skipped, repeated += o.repeated, cut_at_link += o.cut_at_link, star_tets += o.star_tets;
             ranked += o.ranked, tried += o.tried, gathered += o.gathered, located += o.located;
             commits += o.commits, commits_reused += o.commits_reused, parallel_walks += o.parallel_walks;
-            parallel_targets += o.parallel_targets;
+            compactions += o.compactions;
         }
     } stats;
 };
