@@ -438,9 +438,20 @@ struct BrickDecimator {
     };
     std::vector<uint32_t> e0_;
     std::vector<uint64_t> e1_;
+    /// Links are a few dozen keys: an insertion sort beats std::sort's setup there
+    /// (its sorts of 32-bit keys were 3.5 % of bucky 128^3's build).
     template <class T>
     static void sort_unique(std::vector<T>& x) {
-        std::sort(x.begin(), x.end());
+        if (x.size() > 32) {
+            std::sort(x.begin(), x.end());
+        } else {
+            for (size_t i = 1; i < x.size(); ++i) {
+                const T key = x[i];
+                size_t j = i;
+                for (; j > 0 && key < x[j - 1]; --j) x[j] = x[j - 1];
+                x[j] = key;
+            }
+        }
         x.erase(std::unique(x.begin(), x.end()), x.end());
     }
     /// Marks the vertices of Lk(v) `in_link` (link_ok clears them): each one is
