@@ -87,7 +87,7 @@ struct BrickDecimator {
     enum class ValueSlot : uint8_t { Signed32, Unsigned32, Float32, InVolume } slot = ValueSlot::Signed32;
     // What the evaluation reads about a point, in 12 bytes: walking a star's points
     // costs one miss per point instead of one per array, and a tet's owned points are
-    // one block of records (owned_begin), walked in address order.
+    // one block of records (TetRec::head, owned), walked in address order.
     struct PointRec {
         std::array<uint16_t, 3> at{0, 0, 0};  // box-local coordinates (MtModel::build allows 4096 per axis)
         uint8_t planes = 0;  // planes of the volume's box the point lies on
@@ -163,7 +163,7 @@ struct BrickDecimator {
     std::vector<double> point_dev;
 
     // Scratch.
-    std::vector<uint32_t> star_w, pts, pfrom, nbrs, chain_at;
+    std::vector<uint32_t> star_w, pts, pfrom, nbrs;
     std::vector<std::array<uint32_t, 4>> ntv;
     // The new tets' numerators, computed when a point is first tested against the tet:
     // an evaluation often leaves a target at its first points (cut above the cutoff).
