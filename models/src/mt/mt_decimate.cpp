@@ -939,8 +939,8 @@ struct BrickDecimator {
         owned_live += pts.size();
     }
     /// Squeezes the dead blocks out of `point` (blocks slide down in address order):
-    /// commit calls it once they outweigh the live ones, so the array stays within
-    /// twice its live size.
+    /// commit calls it once they outweigh the live ones, or when its new blocks would
+    /// not fit the reservation, so the array stays within twice its live size.
     void compact_owned() {
         ++st.compactions;
         block_order.clear();
