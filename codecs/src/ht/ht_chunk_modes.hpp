@@ -21,6 +21,9 @@
 //                  (§8.4, ht_error_chunk_coder.hpp): up to 35 % smaller.
 // Range coding wins on most chunks; the others bound the cost of constant,
 // sparse and incompressible chunks, where the range coder loses to zstd.
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cstring>
 #include <optional>
@@ -242,6 +245,10 @@ CodedSection encode_field_chunk_v3(const Geometry& G, const T* v, const HtChunk&
     return best;
 }
 
+/// Error chunks with at least this many diamonds code range and range-exp
+/// in parallel (below, the task costs more than it saves).
+constexpr std::size_t kParallelErrorCodingSymbols = 4096;
+
 template <class T>
 CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<const float> e, const HtChunk& c,
                                    int m, ChunkModeChoice o) {
@@ -257,8 +264,28 @@ CodedSection encode_error_chunk_v3(const Geometry& G, const T* v, std::span<cons
     // (float chunks whose bounds are nearly all exact, as m4's cycle 0: +90
     // bytes), and the zstd trial's screen (samples_mode) rejects more chunks
     // the smaller the range size is.
-    CodedSection range = coded(code_error_symbols<false>(sym, m), kModeRange);
-    if (o.range_exp && o.forced < 0) keep_smaller(range, coded(code_error_symbols<true>(sym, m), kModeRangeExp));
+    CodedSection range;
+    if (o.range_exp && o.forced < 0) {
+        // The two codings are independent reads of the symbols: on two cores
+        // when the chunk is large enough to pay for the task (a small volume's
+        // cycles are one chunk each, and their codings were its longest tasks).
+        // The symbols are this thread's thread_local: the tasks reach them
+        // through a reference (in another thread the name is another vector),
+        // and the wait is isolated so that this thread starts no other chunk.
+        const std::vector<ErrorSymbol>& symbols = sym;
+        auto plain = [&] { range = coded(code_error_symbols<false>(symbols, m), kModeRange); };
+        CodedSection range_exp;
+        auto exp = [&] { range_exp = coded(code_error_symbols<true>(symbols, m), kModeRangeExp); };
+        if (symbols.size() >= kParallelErrorCodingSymbols) {
+            tbb::this_task_arena::isolate([&] { tbb::parallel_invoke(plain, exp); });
+        } else {
+            plain();
+            exp();
+        }
+        keep_smaller(range, std::move(range_exp));
+    } else {
+        range = coded(code_error_symbols<false>(sym, m), kModeRange);
+    }
     if (o.forced == int(kModeRange)) return range;
     const auto raw =
         gather_chunk<2>(G, c, [&](int64_t i) { return uint64_t(quantize_error(e[std::size_t(i)], m)); });

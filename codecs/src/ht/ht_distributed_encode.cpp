@@ -93,16 +93,21 @@ void HtRowEncoder::encode(HtBrickRow row, const std::byte* values, const float* 
     dispatch_value_type(type_, [&](auto tag) {
         using T = decltype(tag);
         const T* v = reinterpret_cast<const T*>(values);
-        tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
-            HtChunk c;
-            c.cycle = t;
-            c.brick = uint32_t(std::size_t(row.row) * per_row + j);
-            c.box = G.brick_box(t, c.brick);
-            c.points = G.count_points(t, c.box);
-            c.diamonds = t == G.k ? 0 : c.points;
-            fs[j] = encode_field_chunk_v3<T>(W, v, c, choice);
-            es[j] = encode_error_chunk_v3<T>(W, v, e, c, m, choice);
-        });
+        // A chunk's field and errors are two tasks (as the streaming encoder).
+        tbb::parallel_for(
+            std::size_t(0), 2 * per_row,
+            [&](std::size_t k) {
+                const std::size_t j = k / 2;
+                HtChunk c;
+                c.cycle = t;
+                c.brick = uint32_t(std::size_t(row.row) * per_row + j);
+                c.box = G.brick_box(t, c.brick);
+                c.points = G.count_points(t, c.box);
+                c.diamonds = t == G.k ? 0 : c.points;
+                if (k % 2 == 0) fs[j] = encode_field_chunk_v3<T>(W, v, c, choice);
+                else es[j] = encode_error_chunk_v3<T>(W, v, e, c, m, choice);
+            },
+            tbb::simple_partitioner());
     });
     if (with_errors) {
         // As the streaming encoder: the errors at the centres of cycle t of

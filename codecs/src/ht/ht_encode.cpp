@@ -45,13 +45,19 @@ bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
     uint64_t coded_bytes = 0;  // of the chunk sections so far: the file will hold at least these
     for (std::size_t s = 0; s < chunks.size(); s += batch) {
         const std::size_t e = std::min(chunks.size(), s + batch);
-        tbb::parallel_for(s, e, [&](std::size_t i) {
-            dispatch_value_type(f.type, [&](auto tv) {
-                using T = decltype(tv);
-                fs[i] = encode_field_chunk_v3<T>(G, f.as<T>(), chunks[i], choice);
-                es[i] = encode_error_chunk_v3<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m, choice);
-            });
-        });
+        // A chunk's field and errors are two tasks: with one chunk per cycle
+        // (small volumes) a chunk a task left a core idle.
+        tbb::parallel_for(
+            2 * s, 2 * e,
+            [&](std::size_t k) {
+                const std::size_t i = k / 2;
+                dispatch_value_type(f.type, [&](auto tv) {
+                    using T = decltype(tv);
+                    if (k % 2 == 0) fs[i] = encode_field_chunk_v3<T>(G, f.as<T>(), chunks[i], choice);
+                    else es[i] = encode_error_chunk_v3<T>(G, f.as<T>(), model.diamond_errors(), chunks[i], m, choice);
+                });
+            },
+            tbb::simple_partitioner());
         if (o.progress) o.progress(e, chunks.size());
         for (std::size_t i = s; i < e; ++i) coded_bytes += fs[i].bytes.size() + es[i].bytes.size();
         // Chunk sections alone (the table is compressed: not counted, its size

@@ -327,8 +327,7 @@ private:
             for (Rows& r : rows_) take_values(r, w, wz0, za, zb);
             if (sweep) sweep->process(window.data(), wz0, za, zb, *this);
             else o_.errors->fill(za, zb, *this);
-            for (Rows& r : rows_)
-                while (r.row < r.nrows && std::min(r.row_hi(zmax_) + r.h, zmax_) <= zb) encode_row(r);
+            encode_ready_rows(zb);
             if (o_.progress) o_.progress("encode", uint64_t(zb + 1), uint64_t(zmax_ + 1));
         }
     }
@@ -359,19 +358,68 @@ private:
         }
     }
 
-    /// Encodes the chunks of r's current row, spills them, slides the buffer.
-    void encode_row(Rows& r) {
+    /// A row of cycle t the sweep has passed: its last plane plus 2^t.
+    bool row_ready(const Rows& r, int64_t zb) const {
+        return r.row < r.nrows && std::min(r.row_hi(zmax_) + r.h, zmax_) <= zb;
+    }
+
+    /// Encodes every row the sweep has passed (up to plane zb). The ready rows
+    /// of all cycles are coded together, each chunk's field and errors as two
+    /// tasks: a small volume has one chunk per cycle, and coding the cycles one
+    /// after the other left a core idle. A cycle's next row waits for its
+    /// buffer to slide, so rows of one cycle still go one after the other.
+    void encode_ready_rows(int64_t zb) {
+        std::vector<Rows*> ready;
+        for (;;) {
+            ready.clear();
+            for (Rows& r : rows_)
+                if (row_ready(r, zb)) ready.push_back(&r);
+            if (ready.empty()) return;
+            struct Task {
+                std::size_t row;    // in ready
+                std::size_t chunk;  // in chunks_
+                std::size_t slot;   // in the row
+                bool field;
+            };
+            std::vector<Task> tasks;
+            std::vector<std::vector<CodedSection>> fs(ready.size()), es(ready.size());
+            for (std::size_t i = 0; i < ready.size(); ++i) {
+                const Rows& r = *ready[i];
+                const auto nb = G_.bricks(r.t);
+                const std::size_t per_row = std::size_t(nb[0] * nb[1]);
+                const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
+                fs[i].resize(per_row);
+                es[i].resize(per_row);
+                for (std::size_t j = 0; j < per_row; ++j) {
+                    tasks.push_back({i, base + j, j, true});
+                    tasks.push_back({i, base + j, j, false});
+                }
+            }
+            const ChunkModeChoice choice = chunk_mode_choice(o_.encode);
+            // One task a section (a chunk's coding depends on that chunk alone:
+            // the same bytes for any schedule).
+            tbb::parallel_for(
+                std::size_t(0), tasks.size(),
+                [&](std::size_t k) {
+                    const Task& task = tasks[k];
+                    const Rows& r = *ready[task.row];
+                    const HtChunk& c = chunks_[task.chunk];
+                    if (task.field)
+                        fs[task.row][task.slot] = encode_field_chunk_v3<T>(r.window, r.values.data(), c, choice);
+                    else
+                        es[task.row][task.slot] = encode_error_chunk_v3<T>(
+                            r.window, r.values.data(), std::span<const float>(r.errors), c, m_, choice);
+                },
+                tbb::simple_partitioner());
+            for (std::size_t i = 0; i < ready.size(); ++i) finish_row(*ready[i], fs[i], es[i]);
+        }
+    }
+
+    /// Spills r's coded row, adds its errors to the summary, slides the buffer.
+    void finish_row(Rows& r, std::vector<CodedSection>& fs, std::vector<CodedSection>& es) {
+        const std::size_t per_row = fs.size();
         const auto nb = G_.bricks(r.t);
-        const std::size_t per_row = std::size_t(nb[0] * nb[1]);
-        const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * per_row;
-        std::vector<CodedSection> fs(per_row), es(per_row);
-        const std::span<const float> errors(r.errors);
-        const ChunkModeChoice choice = chunk_mode_choice(o_.encode);
-        tbb::parallel_for(std::size_t(0), per_row, [&](std::size_t j) {
-            const HtChunk& c = chunks_[base + j];
-            fs[j] = encode_field_chunk_v3<T>(r.window, r.values.data(), c, choice);
-            es[j] = encode_error_chunk_v3<T>(r.window, r.values.data(), errors, c, m_, choice);
-        });
+        const std::size_t base = first_[std::size_t(r.t)] + std::size_t(r.row) * std::size_t(nb[0] * nb[1]);
         if (!r.errors.empty()) {
             // The row's errors, plane by plane, at the centres of cycle t only
             // (lattice points not all of whose coordinates are even multiples).
