@@ -1,6 +1,7 @@
 // HT -> container sections: METADATA, HT_HEADER, then per chunk its field and
 // error sections (spec §6-§8).
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "ht_chunk_geometry.hpp"
 #include "ht_container_parts.hpp"
@@ -26,8 +27,19 @@ bool encode_ht(const HtModel& model, const tlod::Metadata& meta, tlod::Container
 
     tlod::Metadata md = meta;
     {
-        ErrorSummary summary(m);
-        for (float v : model.diamond_errors()) summary.add(v);
+        // In parallel (a maximum and a count: the same in any order): one pass
+        // over every grid point's error, which ran alone before the chunks.
+        const std::span<const float> errors(model.diamond_errors());
+        const ErrorSummary summary = tbb::parallel_reduce(
+            tbb::blocked_range<std::size_t>(0, errors.size(), std::size_t{1} << 16), ErrorSummary(m),
+            [&](const tbb::blocked_range<std::size_t>& r, ErrorSummary sum) {
+                for (std::size_t i = r.begin(); i < r.end(); ++i) sum.add(errors[i]);
+                return sum;
+            },
+            [](ErrorSummary a, const ErrorSummary& b) {
+                a.merge(b);
+                return a;
+            });
         summary.write_to(md);
     }
     writer.set_features(ht_features(md, o));
