@@ -123,6 +123,57 @@ uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t
     }
 }
 
+/// The lattice edges of every sign pattern as field offsets from the centre
+/// (midpoint, end, end), for one chunk frame: lattice_bound_interior without
+/// the indirection through the 27 neighbour offsets. The row walks of the
+/// error coders look up an interior diamond's edges here (a third of an error
+/// chunk's decoding was that bound).
+class InteriorEdgeOffsets {
+public:
+    explicit InteriorEdgeOffsets(const ChunkFrame& F) {
+        const DiamondEdgeTable& table = diamond_edge_table();
+        for (int sig = 0; sig < 27; ++sig) {
+            const DiamondEdges& E = table.by_sig[sig];
+            first_[sig] = uint16_t(off_.size() / 3);
+            for (int i = 0; i < E.n; ++i) {
+                off_.push_back(F.off[E.m[i]]);
+                off_.push_back(F.off[E.a[i]]);
+                off_.push_back(F.off[E.b[i]]);
+            }
+        }
+        first_[27] = uint16_t(off_.size() / 3);
+    }
+    /// The edges of sign pattern `sig`: count and (midpoint, a, b) triples.
+    int count(int sig) const { return first_[sig + 1] - first_[sig]; }
+    const int64_t* triples(int sig) const { return off_.data() + 3 * std::size_t(first_[sig]); }
+
+private:
+    std::vector<int64_t> off_;
+    uint16_t first_[28]{};
+};
+
+/// lattice_bound_interior over InteriorEdgeOffsets' triples (the same bound).
+template <class T>
+[[gnu::always_inline]] inline uint32_t lattice_bound_interior(const T* c, const int64_t* tri, int n, int m) {
+    if constexpr (std::is_integral_v<T>) {
+        int64_t best = 0;
+        for (int i = 0; i < n; ++i, tri += 3) {
+            const int64_t d = 2 * int64_t(c[tri[0]]) - int64_t(c[tri[1]]) - int64_t(c[tri[2]]);
+            best = std::max(best, d < 0 ? -d : d);
+        }
+        return quantize_error(static_cast<float>(double(best) * 0.5), m);
+    } else {
+        double best = 0.0;
+        for (int i = 0; i < n; ++i, tri += 3) {
+            const double d = std::fabs(static_cast<double>(c[tri[0]]) -
+                                       0.5 * (static_cast<double>(c[tri[1]]) + static_cast<double>(c[tri[2]])));
+            if (std::isnan(d)) return quantize_error(std::numeric_limits<float>::quiet_NaN(), m);
+            best = std::max(best, d);
+        }
+        return quantize_error(static_cast<float>(best), m);
+    }
+}
+
 template <class T>
 uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, int64_t y,
                              int64_t z, int64_t idx, int m) {
@@ -193,16 +244,21 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
     // far-face, interior and deep-interior tests reduce to x ranges worked out
     // once a row.
     const LatticeView L = lat.view();
+    const InteriorEdgeOffsets interior_edges(F);
     for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
         const uint8_t cls = uint8_t(r.cls);
         // touches_far_face: from x = x0 on if y or z already touch, else past far_from.
         const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
         const ChunkFrame::XRange interior = F.interior_x(r.y, r.z), deep = F.deep_interior_x(r.y, r.z);
+        const int sig[2] = {sig_code(r.x0, r.y, r.z, F.h), sig_code(r.x0 + r.step, r.y, r.z, F.h)};
+        const int64_t* tri[2] = {interior_edges.triples(sig[0]), interior_edges.triples(sig[1])};
+        const int ntri[2] = {interior_edges.count(sig[0]), interior_edges.count(sig[1])};
         const int64_t didx = G.index_delta(r.step, 0, 0);
         int64_t idx = G.index(r.x0, r.y, r.z);
         const int64_t ds = r.step >> c.cycle;
         int64_t s = lat.slot(r.x0, r.y, r.z);
-        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds) {
+        int parity = 0;  // which of the row's two sign patterns
+        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds, parity ^= 1) {
             if (o == end) return;  // never for a consistent chunk; no write past the array
             const uint8_t far = x > far_from ? ErrorSymbol::kFar : 0;
             const uint32_t q = quantize_error(e[std::size_t(idx)], m);
@@ -219,7 +275,8 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
                 L.set(s, 0);
                 continue;
             }
-            const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
+            const uint32_t lb = interior.contains(x) ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
+                                                     : lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
             const uint32_t mag = uint32_t(delta < 0 ? -delta : delta);
             *o++ = ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
@@ -284,35 +341,57 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, float* e, const HtChun
     rc::Decoder dec(in.data(), in.size());
     const uint32_t qmax = max_error_code(m);
     bool ok = true;
-    for_each_point_v2(G, c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z, int cls) {
-        if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
-        const int far = touches_far_face(G, c.cycle, x, y, z);
-        float& out = e[G.index(x, y, z)];
-        if (dec.decode(models->inf[cls][far])) {
-            out = std::numeric_limits<float>::infinity();
-            lat.set(lat.slot(x, y, z), 0);
-            return;
+    // Row by row, as gather_error_symbols: along a row only x moves, by 2h, so
+    // the field index and the lattice slot advance by constants, the far-face
+    // and interior tests are x ranges, and an interior diamond's edge table
+    // alternates between two (its sign pattern changes only on the x axis).
+    // The same decisions in the same order as a point-by-point walk.
+    const LatticeView L = lat.view();
+    const InteriorEdgeOffsets interior_edges(F);
+    for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
+        const int cls = r.cls;
+        const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
+        const ChunkFrame::XRange interior = F.interior_x(r.y, r.z);
+        const int sig[2] = {sig_code(r.x0, r.y, r.z, F.h), sig_code(r.x0 + r.step, r.y, r.z, F.h)};
+        const int64_t* tri[2] = {interior_edges.triples(sig[0]), interior_edges.triples(sig[1])};
+        const int ntri[2] = {interior_edges.count(sig[0]), interior_edges.count(sig[1])};
+        const int64_t didx = G.index_delta(r.step, 0, 0);
+        int64_t idx = G.index(r.x0, r.y, r.z);
+        const int64_t ds = r.step >> c.cycle;
+        int64_t s = lat.slot(r.x0, r.y, r.z);
+        int parity = 0;
+        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds, parity ^= 1) {
+            if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
+            const int far = x > far_from ? 1 : 0;
+            float& out = e[idx];
+            if (dec.decode(models->inf[cls][far])) {
+                out = std::numeric_limits<float>::infinity();
+                L.set(s, 0);
+                continue;
+            }
+            const uint32_t lb = interior.contains(x)
+                                    ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
+                                    : lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
+            const int nbl = rc::bit_length(L.neighbour_mean(s));
+            uint64_t mag;
+            bool neg;
+            if constexpr (Exp) {
+                const int g = error_bucket(lb, m, e0);
+                uint32_t mag32;
+                rc::decode_short_int(dec, models->m[cls][g][std::min(3, nbl)], models->mant[g], mag32, neg);
+                mag = mag32;
+            } else {
+                rc::decode_int(dec, models->m[cls][lb != 0][std::min(5, nbl)], mag, neg, 16);
+            }
+            const int64_t q = int64_t(lb) + (neg ? -int64_t(mag) : int64_t(mag));
+            if (q < 0 || q >= int64_t(qmax) || (neg && mag == 0)) {
+                ok = false;
+                out = std::numeric_limits<float>::infinity();
+            } else {
+                out = dequantize_error(uint16_t(q), m);
+            }
+            L.set(s, mag);
         }
-        const uint32_t lb = lattice_bound_point(G, v, F, c.cycle, x, y, z, G.index(x, y, z), m);
-        const int nbl = rc::bit_length(lat.neighbour_mean(lat.slot(x, y, z)));
-        uint64_t mag;
-        bool neg;
-        if constexpr (Exp) {
-            const int g = error_bucket(lb, m, e0);
-            uint32_t mag32;
-            rc::decode_short_int(dec, models->m[cls][g][std::min(3, nbl)], models->mant[g], mag32, neg);
-            mag = mag32;
-        } else {
-            rc::decode_int(dec, models->m[cls][lb != 0][std::min(5, nbl)], mag, neg, 16);
-        }
-        const int64_t q = int64_t(lb) + (neg ? -int64_t(mag) : int64_t(mag));
-        if (q < 0 || q >= int64_t(qmax) || (neg && mag == 0)) {
-            ok = false;
-            out = std::numeric_limits<float>::infinity();
-        } else {
-            out = dequantize_error(uint16_t(q), m);
-        }
-        lat.set(lat.slot(x, y, z), mag);
     });
     return ok && !dec.bad_end();
 }
