@@ -2,6 +2,11 @@
 // decode and the lazy extraction).
 #include "ht_chunk_decoder.hpp"
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
+
+#include <exception>
+
 #include "ht_chunk_modes.hpp"
 #include "ht_residual_v1.hpp"
 #include "tetlod/codecs/lossy_field.hpp"
@@ -47,19 +52,20 @@ void add_dependencies(const HtLayout& L, std::vector<char>& want) {
 
 namespace {
 
-Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
-                                     const Geometry& G, ValueType type, void* field, float* errors,
-                                     std::vector<std::byte>& field_stored, std::vector<std::byte>& error_stored);
+Failure decode_chunk_field(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                           ValueType type, void* field, std::vector<std::byte>& field_stored);
+Failure decode_chunk_errors_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
+                                   const Geometry& G, ValueType type, const void* field, float* errors,
+                                   std::vector<std::byte>& error_stored);
 
 }  // namespace
 
 /// Spec §5.1 (lossy files): the bound of every diamond of the chunk is its
 /// stored bound plus E, so queries honour their bound against the original.
-Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
-                              ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
-                              std::vector<std::byte>& error_stored) {
-    Failure f = decode_chunk_sections_stored(r, L, c, G, type, field, errors, field_stored, error_stored);
-    if (f.code != ErrorCode::Ok || !errors || L.max_error <= 0 || c.diamonds == 0) return f;
+Failure decode_chunk_errors(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                            ValueType type, const void* field, float* errors, std::vector<std::byte>& error_stored) {
+    Failure f = decode_chunk_errors_stored(r, L, c, G, type, field, errors, error_stored);
+    if (f.code != ErrorCode::Ok || L.max_error <= 0 || c.diamonds == 0) return f;
     G.for_each_point(c.cycle, c.box, [&](int64_t x, int64_t y, int64_t z) {
         float& e = errors[G.index(x, y, z)];
         e = bound_against_original(e, L.max_error);
@@ -67,40 +73,40 @@ Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L,
     return f;
 }
 
+Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                              ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
+                              std::vector<std::byte>& error_stored) {
+    Failure f = decode_chunk_field(r, L, c, G, type, field, field_stored);
+    if (f.code != ErrorCode::Ok || !errors) return f;
+    return decode_chunk_errors(r, L, c, G, type, field, errors, error_stored);
+}
+
 namespace {
 
-Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
-                                     const Geometry& G, ValueType type, void* field, float* errors,
-                                     std::vector<std::byte>& field_stored, std::vector<std::byte>& error_stored) {
-    const int m = L.error_mantissa_bits;
-    auto unpack = [](std::vector<std::byte>& st, const tlod::SectionInfo& si) -> Expected<std::vector<std::byte>> {
-        if (!(si.flags & tlod::kSectionZstd)) return std::move(st);
-        return tlod::zstd_decompress(st, si.raw_size);
-    };
-    auto where = [&](uint32_t section) { return r.name() + ": section " + std::to_string(section) + ": "; };
-    auto raw = unpack(field_stored, r.sections()[c.field_section]);
-    if (!raw) return with_context(where(c.field_section), raw.failure());
+std::string section_context(const tlod::ContainerReader& r, uint32_t section) {
+    return r.name() + ": section " + std::to_string(section) + ": ";
+}
+
+Expected<std::vector<std::byte>> unpack(std::vector<std::byte>& stored, const tlod::SectionInfo& si) {
+    if (!(si.flags & tlod::kSectionZstd)) return std::move(stored);
+    return tlod::zstd_decompress(stored, si.raw_size);
+}
+
+Failure decode_chunk_field(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                           ValueType type, void* field, std::vector<std::byte>& field_stored) {
+    const tlod::SectionInfo& fsi = r.sections()[c.field_section];
+    auto raw = unpack(field_stored, fsi);
+    if (!raw) return with_context(section_context(r, c.field_section), raw.failure());
     if (L.residual_coding == kResidualChunkModes) {
-        const tlod::SectionInfo& fsi = r.sections()[c.field_section];
-        const std::string fbad = dispatch_value_type(type, [&](auto tv) {
+        const std::string bad = dispatch_value_type(type, [&](auto tv) {
             using T = decltype(tv);
             return decode_field_chunk_v3<T>(G, static_cast<T*>(field), c, tlod::section_mode(fsi.flags), *raw,
                                             lattice_step<T>(L.max_error));
         });
-        if (!fbad.empty()) return fail(ErrorCode::CorruptData, where(c.field_section) + fbad);
-        if (!errors) return Failure{ErrorCode::Ok, {}};
-        const tlod::SectionInfo& esi = r.sections()[c.error_section];
-        auto er = unpack(error_stored, esi);
-        if (!er) return with_context(where(c.error_section), er.failure());
-        const std::string ebad = dispatch_value_type(type, [&](auto tv) {
-            using T = decltype(tv);
-            return decode_error_chunk_v3<T>(G, static_cast<const T*>(field), errors, c, m,
-                                            tlod::section_mode(esi.flags), *er);
-        });
-        if (!ebad.empty()) return fail(ErrorCode::CorruptData, where(c.error_section) + ebad);
+        if (!bad.empty()) return fail(ErrorCode::CorruptData, section_context(r, c.field_section) + bad);
         return Failure{ErrorCode::Ok, {}};
     }
-    const bool field_ok = dispatch_value_type(type, [&](auto tv) {
+    const bool ok = dispatch_value_type(type, [&](auto tv) {
         using T = decltype(tv);
         if (L.residual_coding == kResidualZigzagPlanes) {
             decode_field_chunk<T>(G, static_cast<T*>(field), c, raw->data());
@@ -108,10 +114,26 @@ Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLay
         }
         return decode_field_chunk_v2<T>(G, static_cast<T*>(field), c, *raw);
     });
-    if (!field_ok) return fail(ErrorCode::CorruptData, where(c.field_section) + "malformed range-coded stream");
-    if (!errors) return Failure{ErrorCode::Ok, {}};
-    auto er = unpack(error_stored, r.sections()[c.error_section]);
-    if (!er) return with_context(where(c.error_section), er.failure());
+    if (!ok) return fail(ErrorCode::CorruptData, section_context(r, c.field_section) + "malformed range-coded stream");
+    return Failure{ErrorCode::Ok, {}};
+}
+
+Failure decode_chunk_errors_stored(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c,
+                                   const Geometry& G, ValueType type, const void* field, float* errors,
+                                   std::vector<std::byte>& error_stored) {
+    const int m = L.error_mantissa_bits;
+    const tlod::SectionInfo& esi = r.sections()[c.error_section];
+    auto er = unpack(error_stored, esi);
+    if (!er) return with_context(section_context(r, c.error_section), er.failure());
+    if (L.residual_coding == kResidualChunkModes) {
+        const std::string bad = dispatch_value_type(type, [&](auto tv) {
+            using T = decltype(tv);
+            return decode_error_chunk_v3<T>(G, static_cast<const T*>(field), errors, c, m,
+                                            tlod::section_mode(esi.flags), *er);
+        });
+        if (!bad.empty()) return fail(ErrorCode::CorruptData, section_context(r, c.error_section) + bad);
+        return Failure{ErrorCode::Ok, {}};
+    }
     const bool codes_ok = dispatch_value_type(type, [&](auto tv) {
         using T = decltype(tv);
         const T* v = static_cast<const T*>(field);
@@ -119,7 +141,8 @@ Failure decode_chunk_sections_stored(const tlod::ContainerReader& r, const HtLay
         return decode_error_chunk_v2<T>(G, v, errors, c, m, *er);
     });
     if (!codes_ok)
-        return fail(ErrorCode::CorruptData, where(c.error_section) + "error code out of range or malformed stream");
+        return fail(ErrorCode::CorruptData,
+                    section_context(r, c.error_section) + "error code out of range or malformed stream");
     return Failure{ErrorCode::Ok, {}};
 }
 
@@ -133,6 +156,26 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
     const Geometry G = geometry_of(L.domain, L.brick_log2);
     uint64_t decoded = 0, to_decode = 0;
     for (std::size_t j = 0; j < L.chunks.size(); ++j) to_decode += want[j] && !done[j];
+    // A cycle's error chunks read the field of that cycle and the coarser ones
+    // only, and the next cycle's field chunks write only their own points: so
+    // the errors of a cycle decode while the finer fields do. A small volume
+    // has one chunk per cycle, which decoded one after another on one core.
+    std::vector<std::vector<std::byte>> error_stored(L.chunks.size());
+    std::vector<Failure> error_fails(L.chunks.size(), Failure{ErrorCode::Ok, {}});
+    std::vector<std::exception_ptr> error_throws(L.chunks.size());
+    tbb::task_group pending;
+    struct WaitFor {  // every path out waits: the tasks use these arrays
+        tbb::task_group& g;
+        ~WaitFor() { g.wait(); }
+    } wait_for{pending};
+    auto first_error_failure = [&]() -> Failure {
+        pending.wait();
+        for (std::size_t j = 0; j < L.chunks.size(); ++j) {
+            if (error_throws[j]) std::rethrow_exception(error_throws[j]);
+            if (error_fails[j].code != ErrorCode::Ok) return error_fails[j];
+        }
+        return Failure{ErrorCode::Ok, {}};
+    };
     std::size_t i = 0;
     while (i < L.chunks.size()) {
         std::size_t e = i;
@@ -140,7 +183,7 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
         std::vector<std::size_t> ids;
         for (std::size_t j = i; j < e; ++j)
             if (want[j] && !done[j]) ids.push_back(j);
-        std::vector<std::vector<std::byte>> fst(ids.size()), est(ids.size());
+        std::vector<std::vector<std::byte>> fst(ids.size());
         for (std::size_t j = 0; j < ids.size(); ++j) {
             auto s = r.read_stored(L.chunks[ids[j]].field_section);
             if (!s) return s.failure();
@@ -148,20 +191,35 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
             if (errors) {
                 auto s2 = r.read_stored(L.chunks[ids[j]].error_section);
                 if (!s2) return s2.failure();
-                est[j] = std::move(*s2);
+                error_stored[ids[j]] = std::move(*s2);
             }
         }
         std::vector<Failure> fails(ids.size(), Failure{ErrorCode::Ok, {}});
         tbb::parallel_for(std::size_t(0), ids.size(), [&](std::size_t j) {
-            fails[j] = decode_chunk_sections(r, L, L.chunks[ids[j]], G, field.type, field.data.data(),
-                                             errors ? errors->data() : nullptr, fst[j], est[j]);
+            fails[j] = decode_chunk_sections(r, L, L.chunks[ids[j]], G, field.type, field.data.data(), nullptr,
+                                             fst[j], error_stored[ids[j]]);
         });
         for (const Failure& f : fails)
             if (f.code != ErrorCode::Ok) return f;
+        if (errors)
+            for (std::size_t id : ids)
+                pending.run([&, id] {
+                    try {
+                        error_fails[id] = decode_chunk_errors(r, L, L.chunks[id], G, field.type, field.data.data(),
+                                                              errors->data(), error_stored[id]);
+                    } catch (...) {
+                        error_throws[id] = std::current_exception();
+                    }
+                    error_stored[id] = {};
+                });
         for (std::size_t j : ids) done[j] = 1;
         decoded += ids.size();
         if (progress) progress(decoded, to_decode);
         i = e;
+    }
+    if (errors) {
+        const Failure f = first_error_failure();
+        if (f.code != ErrorCode::Ok) return f;
     }
     return decoded;
 }

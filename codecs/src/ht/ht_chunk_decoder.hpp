@@ -23,6 +23,11 @@ Failure decode_chunk_sections(const tlod::ContainerReader& r, const HtLayout& L,
                               ValueType type, void* field, float* errors, std::vector<std::byte>& field_stored,
                               std::vector<std::byte>& error_stored);
 
+/// The error half of decode_chunk_sections: chunk `c`'s errors, once the field
+/// of its cycle and the coarser ones is decoded (the lattice bounds read it).
+Failure decode_chunk_errors(const tlod::ContainerReader& r, const HtLayout& L, const HtChunk& c, const Geometry& G,
+                            ValueType type, const void* field, float* errors, std::vector<std::byte>& error_stored);
+
 /// Decodes the wanted chunks not yet decoded (`done`), cycle by cycle, into
 /// `field` / `errors` (errors when non-null). Dependencies must be wanted too.
 Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, const std::vector<char>& want,
