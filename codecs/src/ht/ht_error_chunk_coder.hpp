@@ -201,6 +201,36 @@ uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F,
     return lattice_bound_near_face(v + idx, E, F.off, avail, m);
 }
 
+/// What both error coders work out once per row (for_each_row_v2): along a
+/// row only x moves, by 2h, so the field index and the lattice slot advance by
+/// constants, the far-face and interior tests are x ranges, and an interior
+/// diamond's edges alternate between two sign patterns (only x's changes).
+struct ErrorRow {
+    int64_t far_from;                // touches_far_face for x > far_from
+    ChunkFrame::XRange interior;     // ChunkFrame::interior
+    const int64_t* tri[2];           // InteriorEdgeOffsets of the two patterns
+    int ntri[2];
+    int64_t idx, didx, slot, dslot;  // field index and lattice slot of x, and their steps
+    int parity = 0;                  // which pattern x has
+
+    ErrorRow(const Geometry& G, const ChunkFrame& F, const ChunkLattice& lat, const InteriorEdgeOffsets& edges, int t,
+             const ChunkRow& r)
+        : far_from(touches_far_face(G, t, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h),
+          interior(F.interior_x(r.y, r.z)), idx(G.index(r.x0, r.y, r.z)), didx(G.index_delta(r.step, 0, 0)),
+          slot(lat.slot(r.x0, r.y, r.z)), dslot(r.step >> t) {
+        const int sig[2] = {sig_code(r.x0, r.y, r.z, F.h), sig_code(r.x0 + r.step, r.y, r.z, F.h)};
+        for (int p = 0; p < 2; ++p) tri[p] = edges.triples(sig[p]), ntri[p] = edges.count(sig[p]);
+    }
+    void next() { idx += didx, slot += dslot, parity ^= 1; }
+    /// The lattice bound code of the diamond at (x, r.y, r.z), the current point.
+    template <class T>
+    uint32_t bound(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, const ChunkRow& r,
+                   int m) const {
+        return interior.contains(x) ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
+                                    : lattice_bound_point(G, v, F, t, x, r.y, r.z, idx, m);
+    }
+};
+
 /// What the coders of §8.3 and §8.4 code for one diamond, in the chunk's class
 /// order: both code the same Inf bits and the same residuals q - lb against the
 /// same lattice bounds and neighbours' magnitudes; only their models differ. The
@@ -239,35 +269,25 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
     const bool bound_is_error = c.cycle == 0 && std::is_integral_v<T> && sizeof(T) <= 2;
     prefetch_chunk(G, e.data(), c.cycle, c.box, 0);
     if (!bound_is_error) prefetch_chunk(G, v, c.cycle, c.box, 1);
-    // Row by row (the order of for_each_point_v2): along a row only x moves, by
-    // 2h, so the field index and the lattice slot advance by constants and the
-    // far-face, interior and deep-interior tests reduce to x ranges worked out
-    // once a row.
+    // Row by row (the order of for_each_point_v2), with what ErrorRow works out
+    // once a row; the deep-interior test is an x range too.
     const LatticeView L = lat.view();
     const InteriorEdgeOffsets interior_edges(F);
     for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
         const uint8_t cls = uint8_t(r.cls);
-        // touches_far_face: from x = x0 on if y or z already touch, else past far_from.
-        const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
-        const ChunkFrame::XRange interior = F.interior_x(r.y, r.z), deep = F.deep_interior_x(r.y, r.z);
-        const int sig[2] = {sig_code(r.x0, r.y, r.z, F.h), sig_code(r.x0 + r.step, r.y, r.z, F.h)};
-        const int64_t* tri[2] = {interior_edges.triples(sig[0]), interior_edges.triples(sig[1])};
-        const int ntri[2] = {interior_edges.count(sig[0]), interior_edges.count(sig[1])};
-        const int64_t didx = G.index_delta(r.step, 0, 0);
-        int64_t idx = G.index(r.x0, r.y, r.z);
-        const int64_t ds = r.step >> c.cycle;
-        int64_t s = lat.slot(r.x0, r.y, r.z);
-        int parity = 0;  // which of the row's two sign patterns
-        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds, parity ^= 1) {
+        ErrorRow row(G, F, lat, interior_edges, c.cycle, r);
+        const ChunkFrame::XRange deep = F.deep_interior_x(r.y, r.z);
+        for (int64_t x = r.x0; x <= r.x1; x += r.step, row.next()) {
             if (o == end) return;  // never for a consistent chunk; no write past the array
-            const uint8_t far = x > far_from ? ErrorSymbol::kFar : 0;
-            const uint32_t q = quantize_error(e[std::size_t(idx)], m);
+            const int64_t s = row.slot;
+            const uint8_t far = x > row.far_from ? ErrorSymbol::kFar : 0;
+            const uint32_t q = quantize_error(e[std::size_t(row.idx)], m);
             if (q == qmax) {
                 *o++ = ErrorSymbol{0, 0, cls, 0, uint8_t(far | ErrorSymbol::kInf)};
                 L.set(s, 0);
                 continue;
             }
-            if (bound_is_error && interior.contains(x)) {
+            if (bound_is_error && row.interior.contains(x)) {
                 // q equals its bound: a zero residual. Its neighbours' residuals are
                 // zero too when they are all interior, so their mean is 0 unread.
                 const int nb = deep.contains(x) ? 0 : rc::bit_length(L.neighbour_mean(s));
@@ -275,8 +295,7 @@ void gather_error_symbols(const Geometry& G, const T* v, std::span<const float> 
                 L.set(s, 0);
                 continue;
             }
-            const uint32_t lb = interior.contains(x) ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
-                                                     : lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
+            const uint32_t lb = row.bound(G, v, F, c.cycle, x, r, m);
             const int64_t delta = int64_t(q) - int64_t(lb);
             const uint32_t mag = uint32_t(delta < 0 ? -delta : delta);
             *o++ = ErrorSymbol{uint16_t(lb), uint16_t(mag), cls, uint8_t(rc::bit_length(L.neighbour_mean(s))),
@@ -341,37 +360,24 @@ bool decode_error_chunk_v2(const Geometry& G, const T* v, float* e, const HtChun
     rc::Decoder dec(in.data(), in.size());
     const uint32_t qmax = max_error_code(m);
     bool ok = true;
-    // Row by row, as gather_error_symbols: along a row only x moves, by 2h, so
-    // the field index and the lattice slot advance by constants, the far-face
-    // and interior tests are x ranges, and an interior diamond's edge table
-    // alternates between two (its sign pattern changes only on the x axis).
-    // The same decisions in the same order as a point-by-point walk.
+    // Row by row as gather_error_symbols (ErrorRow): the same decisions in the
+    // same order as a point-by-point walk.
     const LatticeView L = lat.view();
     const InteriorEdgeOffsets interior_edges(F);
     for_each_row_v2(G, c.cycle, c.box, [&](const ChunkRow& r) {
         const int cls = r.cls;
-        const int64_t far_from = touches_far_face(G, c.cycle, r.x0, r.y, r.z) ? r.x0 - 1 : G.box_max[0] - F.h;
-        const ChunkFrame::XRange interior = F.interior_x(r.y, r.z);
-        const int sig[2] = {sig_code(r.x0, r.y, r.z, F.h), sig_code(r.x0 + r.step, r.y, r.z, F.h)};
-        const int64_t* tri[2] = {interior_edges.triples(sig[0]), interior_edges.triples(sig[1])};
-        const int ntri[2] = {interior_edges.count(sig[0]), interior_edges.count(sig[1])};
-        const int64_t didx = G.index_delta(r.step, 0, 0);
-        int64_t idx = G.index(r.x0, r.y, r.z);
-        const int64_t ds = r.step >> c.cycle;
-        int64_t s = lat.slot(r.x0, r.y, r.z);
-        int parity = 0;
-        for (int64_t x = r.x0; x <= r.x1; x += r.step, idx += didx, s += ds, parity ^= 1) {
+        ErrorRow row(G, F, lat, interior_edges, c.cycle, r);
+        for (int64_t x = r.x0; x <= r.x1; x += r.step, row.next()) {
             if (dec.overrun()) return;  // a valid stream never reads past its end: stop early
-            const int far = x > far_from ? 1 : 0;
-            float& out = e[idx];
+            const int64_t s = row.slot;
+            const int far = x > row.far_from ? 1 : 0;
+            float& out = e[row.idx];
             if (dec.decode(models->inf[cls][far])) {
                 out = std::numeric_limits<float>::infinity();
                 L.set(s, 0);
                 continue;
             }
-            const uint32_t lb = interior.contains(x)
-                                    ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
-                                    : lattice_bound_point(G, v, F, c.cycle, x, r.y, r.z, idx, m);
+            const uint32_t lb = row.bound(G, v, F, c.cycle, x, r, m);
             const int nbl = rc::bit_length(L.neighbour_mean(s));
             uint64_t mag;
             bool neg;
