@@ -168,14 +168,6 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
         tbb::task_group& g;
         ~WaitFor() { g.wait(); }
     } wait_for{pending};
-    auto first_error_failure = [&]() -> Failure {
-        pending.wait();
-        for (std::size_t j = 0; j < L.chunks.size(); ++j) {
-            if (error_throws[j]) std::rethrow_exception(error_throws[j]);
-            if (error_fails[j].code != ErrorCode::Ok) return error_fails[j];
-        }
-        return Failure{ErrorCode::Ok, {}};
-    };
     std::size_t i = 0;
     while (i < L.chunks.size()) {
         std::size_t e = i;
@@ -217,9 +209,10 @@ Expected<uint64_t> decode_chunks(tlod::ContainerReader& r, const HtLayout& L, co
         if (progress) progress(decoded, to_decode);
         i = e;
     }
-    if (errors) {
-        const Failure f = first_error_failure();
-        if (f.code != ErrorCode::Ok) return f;
+    pending.wait();
+    for (std::size_t j = 0; j < L.chunks.size(); ++j) {  // the first failure in file order
+        if (error_throws[j]) std::rethrow_exception(error_throws[j]);
+        if (error_fails[j].code != ErrorCode::Ok) return error_fails[j];
     }
     return decoded;
 }

@@ -105,29 +105,10 @@ uint32_t lattice_bound_near_face(const T* c, const DiamondEdges& E, const int64_
     return quantize_error(static_cast<float>(best), m);
 }
 
-/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
-/// all its tets are in B and every point they touch is available, so the scan
-/// is the closed-form edge list of its sign pattern over precomputed offsets.
-/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
-template <class T>
-uint32_t lattice_bound_interior(const T* c, const DiamondEdges& E, const int64_t off[27], int m) {
-    if constexpr (std::is_integral_v<T>) {
-        int64_t best = 0;
-        for (int i = 0; i < E.n; ++i) {
-            const int64_t d = 2 * int64_t(c[off[E.m[i]]]) - int64_t(c[off[E.a[i]]]) - int64_t(c[off[E.b[i]]]);
-            best = std::max(best, d < 0 ? -d : d);
-        }
-        return quantize_error(static_cast<float>(double(best) * 0.5), m);
-    } else {
-        return lattice_bound_near_face(c, E, off, ~0u, m);  // every point of the lattice is available
-    }
-}
-
-/// The lattice edges of every sign pattern as field offsets from the centre
-/// (midpoint, end, end), for one chunk frame: lattice_bound_interior without
-/// the indirection through the 27 neighbour offsets. The row walks of the
-/// error coders look up an interior diamond's edges here (a third of an error
-/// chunk's decoding was that bound).
+/// The lattice edges of every sign pattern (DiamondEdgeTable) as field offsets
+/// from the centre (midpoint, end, end), for one chunk frame, so an interior
+/// diamond's bound reads its values without the indirection through the 27
+/// neighbour offsets (a third of an error chunk's decoding was that bound).
 class InteriorEdgeOffsets {
 public:
     explicit InteriorEdgeOffsets(const ChunkFrame& F) {
@@ -152,7 +133,10 @@ private:
     uint16_t first_[28]{};
 };
 
-/// lattice_bound_interior over InteriorEdgeOffsets' triples (the same bound).
+/// lattice_bound_code for a diamond in the chunk interior (ChunkFrame::interior):
+/// all its tets are in B and every point they touch is available, so the scan
+/// is the closed-form edge list of its sign pattern (InteriorEdgeOffsets).
+/// For integer types |f(m) - (f(a) + f(b))/2| = |2 f(m) - f(a) - f(b)| / 2 exactly.
 template <class T>
 [[gnu::always_inline]] inline uint32_t lattice_bound_interior(const T* c, const int64_t* tri, int n, int m) {
     if constexpr (std::is_integral_v<T>) {
@@ -174,11 +158,13 @@ template <class T>
     }
 }
 
+/// lattice_bound_code for a diamond outside the chunk interior (interior ones
+/// take lattice_bound_interior): near the chunk's faces the closed-form edges
+/// with the points available, beyond B's faces the general scan.
 template <class T>
-uint32_t lattice_bound_point(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, int64_t y,
-                             int64_t z, int64_t idx, int m) {
+uint32_t lattice_bound_at_faces(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, int64_t y,
+                                int64_t z, int64_t idx, int m) {
     const DiamondEdges& E = diamond_edge_table().by_sig[sig_code(x, y, z, F.h)];
-    if (F.interior(x, y, z)) return lattice_bound_interior(v + idx, E, F.off, m);
     const int64_t h = F.h;
     const int64_t c[3] = {x, y, z};
     bool in_b = true;
@@ -227,7 +213,7 @@ struct ErrorRow {
     uint32_t bound(const Geometry& G, const T* v, const ChunkFrame& F, int t, int64_t x, const ChunkRow& r,
                    int m) const {
         return interior.contains(x) ? lattice_bound_interior(v + idx, tri[parity], ntri[parity], m)
-                                    : lattice_bound_point(G, v, F, t, x, r.y, r.z, idx, m);
+                                    : lattice_bound_at_faces(G, v, F, t, x, r.y, r.z, idx, m);
     }
 };
 
